@@ -1,0 +1,165 @@
+"""The record format: a CSV of one joint's excitation.
+
+    # inertia: 2.5
+    # joint_type: revolute
+    # position_unit: rad
+    # torque_unit: N*m
+    t,tau,q[,qd]
+    0.000,0.01,0.0
+    ...
+
+``t`` [s]; ``tau`` the applied torque [N·m or N], gravity already compensated; ``q`` [rad or m];
+optional ``qd``.  Comment lines carry ``key: value`` metadata.  Reading validates everything
+the identification relies on and raises ``InputError`` with one line naming the problem.
+"""
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bench.errors import InputError
+
+REQUIRED = ("t", "tau", "q")
+JOINT_TYPES = ("prismatic", "revolute")
+
+
+@dataclass
+class Record:
+    t: np.ndarray
+    tau: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def dt(self) -> float:
+        return float((self.t[-1] - self.t[0]) / (len(self.t) - 1))
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def inertia(self) -> float | None:
+        m = self.meta.get("inertia")
+        return None if m is None else float(m)
+
+    @property
+    def joint_type(self) -> str:
+        return str(self.meta.get("joint_type", "revolute"))
+
+    def slice(self, start: int, stop: int) -> "Record":
+        qd = None if self.qd is None else self.qd[start:stop]
+        return Record(self.t[start:stop], self.tau[start:stop], self.q[start:stop], qd, dict(self.meta))
+
+    def to_csv(self, path: str | Path | None = None) -> str:
+        buf = io.StringIO()
+        for k, v in self.meta.items():
+            buf.write(f"# {k}: {v}\n")
+        cols = ["t", "tau", "q"] + (["qd"] if self.qd is not None else [])
+        buf.write(",".join(cols) + "\n")
+        data = np.column_stack([self.t, self.tau, self.q] + ([self.qd] if self.qd is not None else []))
+        np.savetxt(buf, data, delimiter=",", fmt=["%.6f", "%.9g", "%.10g"] + (["%.9g"] if self.qd is not None else []))
+        text = buf.getvalue()
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+
+def _parse_meta_value(v: str):
+    try:
+        x = float(v)
+    except ValueError:
+        return v
+    return x if math.isfinite(x) else v
+
+
+def read_csv(source: str | Path | io.TextIOBase, name: str | None = None) -> Record:
+    """Read and validate a record.  ``source`` is a path or an open text stream."""
+    if isinstance(source, (str, Path)):
+        name = name or str(source)
+        try:
+            text = Path(source).read_text()
+        except FileNotFoundError:
+            raise InputError(f"{name}: no such file") from None
+        except (IsADirectoryError, PermissionError, UnicodeDecodeError) as e:
+            raise InputError(f"{name}: cannot read ({e.__class__.__name__})") from None
+    else:
+        text = source.read()
+        name = name or "record"
+    meta: dict = {}
+    rows: list[str] = []
+    for line in text.splitlines():
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            body = s[1:].strip()
+            if ":" in body:
+                k, v = body.split(":", 1)
+                meta[k.strip()] = _parse_meta_value(v.strip())
+            continue
+        rows.append(s)
+    if not rows:
+        raise InputError(f"{name}: no header row and no data")
+    header = [h.strip() for h in rows[0].split(",")]
+    for col in REQUIRED:
+        if col not in header:
+            raise InputError(f"{name}: missing column '{col}' (header is: {','.join(header)})")
+    if len(set(header)) != len(header):
+        raise InputError(f"{name}: duplicate column names in header")
+    idx = {h: i for i, h in enumerate(header)}
+    wanted = [c for c in ("t", "tau", "q", "qd") if c in idx]
+    data = {c: np.empty(len(rows) - 1) for c in wanted}
+    for r, line in enumerate(rows[1:], start=2):
+        cells = line.split(",")
+        if len(cells) != len(header):
+            raise InputError(f"{name}: data row {r - 1} has {len(cells)} fields, header has {len(header)}")
+        for c in wanted:
+            cell = cells[idx[c]].strip()
+            try:
+                x = float(cell)
+            except ValueError:
+                raise InputError(f"{name}: column '{c}' is not numeric at data row {r - 1}: {cell!r}") from None
+            if not math.isfinite(x):
+                raise InputError(f"{name}: column '{c}' has a non-finite value ({cell}) at data row {r - 1}")
+            data[c][r - 2] = x
+    rec = Record(t=data["t"], tau=data["tau"], q=data["q"], qd=data.get("qd"), meta=meta)
+    validate(rec, name)
+    return rec
+
+
+def validate(rec: Record, name: str = "record") -> None:
+    n = len(rec.t)
+    if n < 10:
+        raise InputError(f"{name}: only {n} samples; a record needs at least two excitation cycles")
+    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
+        arr = getattr(rec, col)
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"{name}: column '{col}' contains NaN or infinite values")
+    d = np.diff(rec.t)
+    if np.any(d <= 0):
+        i = int(np.argmax(d <= 0))
+        raise InputError(f"{name}: time is not increasing at data row {i + 2} (t={rec.t[i + 1]:g})")
+    dt = float(np.median(d))
+    if np.max(np.abs(d - dt)) > 0.01 * dt + 1e-9:
+        i = int(np.argmax(np.abs(d - dt)))
+        raise InputError(f"{name}: unevenly sampled: step {d[i]:.6g} s at data row {i + 2}, "
+                         f"median step {dt:.6g} s (resample to a fixed rate first)")
+    jt = rec.meta.get("joint_type")
+    if jt is not None and jt not in JOINT_TYPES:
+        raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
+    m = rec.meta.get("inertia")
+    if m is not None:
+        try:
+            mv = float(m)
+        except (TypeError, ValueError):
+            raise InputError(f"{name}: metadata inertia is not a number: {m!r}") from None
+        if not (mv > 0 and math.isfinite(mv)):
+            raise InputError(f"{name}: metadata inertia must be positive, got {m}")
+    if np.ptp(rec.q) == 0:
+        raise InputError(f"{name}: position is constant: the joint never moved")
