@@ -1,0 +1,1 @@
+"""Built-in bench configurations (package data)."""
