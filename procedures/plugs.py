@@ -1,0 +1,44 @@
+"""The one place a procedure gets drives from.
+
+Dispatch is by ``joint["transport"]``: the driver registry (``drivers.registry.open_drive``)
+when it is installed, else the in-process simulated plug for every joint (lock-step virtual
+bench).  ``force_simulated`` makes every joint simulated whatever its transport: unit tests
+and the default virtual presets use it until the emulated CANopen/serial drives exist.
+"""
+from __future__ import annotations
+
+import importlib
+
+from bench.errors import InputError
+from drivers.protocols import TorqueDrive
+
+
+def registry_available() -> bool:
+    try:
+        importlib.import_module("drivers.registry")
+        return True
+    except ImportError:
+        return False
+
+
+def open_drive(joint: dict, force_simulated: bool = False) -> TorqueDrive:
+    if force_simulated or joint.get("transport") == "simulated" or not registry_available():
+        factory = importlib.import_module("drivers.simulated").open_simulated
+        return factory(dict(joint, transport="simulated"))
+    return importlib.import_module("drivers.registry").open_drive(joint)
+
+
+def open_drives(joints: list[dict], force_simulated: bool = False, seed: int = 0,
+                control_period: float = 0.001) -> dict[str, TorqueDrive]:
+    drives: dict[str, TorqueDrive] = {}
+    try:
+        for n, j in enumerate(joints):
+            jj = dict(j, seed=seed * 101 + n, control_period=control_period)
+            drives[j["id"]] = open_drive(jj, force_simulated)
+    except Exception as e:
+        for d in drives.values():
+            d.close()
+        if isinstance(e, InputError):
+            raise
+        raise InputError(f"cannot open the drives: {e}") from None
+    return drives
