@@ -108,43 +108,45 @@ def bristle_step(z0, v, h, s, sigma0):
 
 
 @njit(cache=True)
-def friction_trace(v, dt, z0, Fc, Fs, alpha, delta, sigma0, sigma1, sigma2, level, visc):
-    """Friction along a sampled velocity trace.
+def friction_trace(vh, dt, z0, Fc, Fs, alpha, delta, sigma0, sigma1, sigma2, level, visc):
+    """Friction along a velocity trace held over intervals of length dt.
 
-    z[i] is the bristle state at sample i; between samples the velocity is held at the
-    midpoint value (v[i] + v[i+1]) / 2 and the state advanced exactly.  ``level`` scales
-    s(v) (position-, direction- or time-dependent friction levels) and ``visc`` scales
-    sigma2, sample by sample.  Returns (F, z).
+    ``vh[i]`` is the velocity held over interval i; the bristle state is advanced exactly and
+    ``F[i]`` is the exact mean friction over the interval:
+    sigma0 * mean(z) + sigma1 * (z_end - z_start) / dt + sigma2 * vh.  ``level`` scales s(v)
+    (position-, direction- or time-dependent friction levels) and ``visc`` scales sigma2,
+    interval by interval.  Returns (F, z at the start of each interval).
     """
-    n = v.shape[0]
+    n = vh.shape[0]
     F = np.empty(n)
     z = np.empty(n)
     zi = z0
     for i in range(n):
         z[i] = zi
-        vi = v[i]
-        s = level[i] * stribeck_level(vi, Fc, Fs, alpha, delta)
-        if s > 0.0:
-            zdot = vi - sigma0 * abs(vi) * zi / s
-        else:
-            zdot = vi
-        F[i] = sigma0 * zi + sigma1 * zdot + sigma2 * visc[i] * vi
-        if i + 1 < n:
-            vh = 0.5 * (vi + v[i + 1])
-            sh = 0.5 * (level[i] + level[i + 1]) * stribeck_level(vh, Fc, Fs, alpha, delta)
-            zi, _ = bristle_step(zi, vh, dt, sh, sigma0)
+        s = level[i] * stribeck_level(vh[i], Fc, Fs, alpha, delta)
+        z1, zbar = bristle_step(zi, vh[i], dt, s, sigma0)
+        F[i] = sigma0 * zbar + sigma1 * (z1 - zi) / dt + sigma2 * visc[i] * vh[i]
+        zi = z1
     return F, z
 
 
-def model_friction(params: LuGreParams, v: np.ndarray, dt: float, z0: float | None = None,
+def interval_to_samples(F_interval: np.ndarray) -> np.ndarray:
+    """Mean over the two intervals around each sample: what the central second difference of
+    position balances (M (q[i+1] - 2 q[i] + q[i-1]) / dt^2 = tau - mean friction)."""
+    out = np.empty(len(F_interval) + 1)
+    out[1:-1] = 0.5 * (F_interval[1:] + F_interval[:-1])
+    out[0], out[-1] = F_interval[0], F_interval[-1]
+    return out
+
+
+def model_friction(params: LuGreParams, q: np.ndarray, dt: float, z0: float = 0.0,
                    level: np.ndarray | None = None, visc: np.ndarray | None = None):
-    """Friction of ``params`` along velocity ``v`` sampled every ``dt``; returns (F, z).
-    With z0=None the state starts at its steady state for v[0]."""
-    v = np.ascontiguousarray(v, dtype=np.float64)
-    ones = np.ones_like(v)
+    """Friction of ``params`` at the samples of a position trace ``q`` (velocity held over
+    each interval at (q[i+1] - q[i]) / dt).  Returns (F at samples, z at interval starts)."""
+    vh = np.ascontiguousarray(np.diff(np.asarray(q, dtype=np.float64)) / dt)
+    ones = np.ones_like(vh)
     level = ones if level is None else np.ascontiguousarray(level, dtype=np.float64)
     visc = ones if visc is None else np.ascontiguousarray(visc, dtype=np.float64)
-    if z0 is None:
-        z0 = float(np.sign(v[0]) * level[0] * params.stribeck(v[0]) / params.sigma0)
-    return friction_trace(v, float(dt), float(z0), params.Fc, params.Fs, params.alpha,
+    F, z = friction_trace(vh, float(dt), float(z0), params.Fc, params.Fs, params.alpha,
                           params.delta, params.sigma0, params.sigma1, params.sigma2, level, visc)
+    return interval_to_samples(F), z

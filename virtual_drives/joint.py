@@ -147,6 +147,7 @@ def simulate_record(spec: JointSpec, amplitude: float, frequency: float, duratio
         "joint_type": spec.joint_type,
         "position_unit": spec.position_unit,
         "torque_unit": spec.torque_unit,
+        "torque_hold": "zoh",
         "joint": spec.name,
         "source": "virtual",
         "seed": seed,

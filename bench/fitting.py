@@ -1,0 +1,152 @@
+"""Dynamic least-squares fit of the LuGre model (plus optional effect terms) to a record.
+
+The model is simulated along the measured velocity with the shared kernel
+(``bench.lugre.friction_trace``), passed through the record's zero-phase low-pass and
+compared with the friction estimate of eq. 5.  Positive physical parameters are fitted on a
+log scale; standard errors come from the Jacobian, inflated for the residual's
+autocorrelation (filtered residuals are far from white).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from bench import terms
+from bench.lugre import LuGreParams, friction_trace, interval_to_samples
+from bench.signals import Conditioned, effective_sample_fraction
+
+LUGRE_KEYS = ("Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2")
+
+
+@dataclass
+class Param:
+    name: str
+    value: float
+    log: bool = True          # fit log(value): the parameter is positive
+    lo: float = -np.inf       # bounds in fitted coordinates
+    hi: float = np.inf
+
+    def to_x(self, value: float) -> float:
+        return math.log(value) if self.log else value
+
+    def from_x(self, x: float) -> float:
+        return math.exp(x) if self.log else x
+
+
+@dataclass
+class FitData:
+    """What every fit of one record shares."""
+    c: Conditioned
+    friction: np.ndarray      # eq. 5 estimate with the declared inertia
+    mask: np.ndarray          # samples scored (filter edges and start-up excluded)
+    z0: float
+
+    @property
+    def n(self) -> int:
+        return int(self.mask.sum())
+
+
+# An "applier" writes a set of fitted values into the model: LuGre parameters, the terms
+# vector, an inertia correction.  Effects (bench.effects) provide their own.
+Applier = Callable[[dict, dict, np.ndarray], None]
+
+
+def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.ndarray:
+    """Model friction, filtered like the measurement, at every sample."""
+    lugre = {k: values[k] for k in LUGRE_KEYS}
+    lugre["delta"] = values.get("delta", 1.0)
+    ev = terms.empty()
+    extra: dict = {"inertia_error": 0.0}
+    for apply in appliers:
+        apply(values, extra, ev)
+    c = data.c
+    add, _, _ = terms.effect_terms(c.q, c.v, c.t, ev)
+    _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
+    level = np.maximum(level, 1e-6)
+    F, _ = friction_trace(c.v_mid, c.dt, data.z0, lugre["Fc"], lugre["Fs"], lugre["alpha"],
+                          lugre["delta"], lugre["sigma0"], lugre["sigma1"], lugre["sigma2"],
+                          np.ascontiguousarray(level), np.ascontiguousarray(visc))
+    out = c.lowpass(interval_to_samples(F) + add)
+    if extra["inertia_error"]:
+        out = out + extra["inertia_error"] * c.a
+    return out
+
+
+@dataclass
+class FitResult:
+    values: dict
+    stderr: dict              # natural units; None where the Jacobian is singular
+    residual: np.ndarray      # on all samples: measured - model
+    rms: float                # on the scored samples
+    nrmse: float
+    cost: float
+    n_eff_fraction: float
+    success: bool
+    params: list[Param] = field(default_factory=list)
+
+    def lugre(self) -> LuGreParams:
+        return LuGreParams(**{k: self.values[k] for k in LUGRE_KEYS}, delta=self.values.get("delta", 1.0))
+
+
+def fit(data: FitData, params: list[Param], fixed: dict | None = None,
+        appliers: list[Applier] = (), max_nfev: int = 200,
+        weights: np.ndarray | None = None) -> FitResult:
+    """Least-squares fit of ``params`` (others held at ``fixed``)."""
+    fixed = dict(fixed or {})
+    mask = data.mask
+    y = data.friction
+    w = np.ones(mask.sum()) if weights is None else weights[mask]
+
+    def values_of(x):
+        vals = dict(fixed)
+        for p, xi in zip(params, x):
+            vals[p.name] = p.from_x(xi)
+        return vals
+
+    def resid(x):
+        r = (y - predict(data, values_of(x), appliers))[mask] * w
+        return r if np.all(np.isfinite(r)) else np.full_like(r, 1e6 * (np.abs(y).max() + 1))
+
+    x0 = np.array([np.clip(p.to_x(p.value), p.lo, p.hi) for p in params])
+    lo = np.array([p.lo for p in params])
+    hi = np.array([p.hi for p in params])
+    res = least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac",
+                        max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10)
+    vals = values_of(res.x)
+    full_r = y - predict(data, vals, appliers)
+    r = full_r[mask]
+    rms = float(np.sqrt(np.mean(r ** 2)))
+    ym = y[mask]
+    nrmse = float(np.linalg.norm(r) / max(np.linalg.norm(ym - ym.mean()), 1e-300))
+    frac = effective_sample_fraction(r)
+    stderr = _stderr(res.jac, res.fun, params, res.x, frac)
+    return FitResult(values=vals, stderr=stderr, residual=full_r, rms=rms, nrmse=nrmse,
+                     cost=float(res.cost), n_eff_fraction=frac, success=bool(res.success),
+                     params=params)
+
+
+def _stderr(jac, fun, params, x, n_eff_fraction):
+    n, k = jac.shape
+    dof = max(n - k, 1)
+    s2 = float(fun @ fun) / dof
+    out = {}
+    try:
+        jtj = jac.T @ jac
+        scale = np.sqrt(np.diag(jtj))
+        scale[scale == 0] = 1.0
+        cov = np.linalg.pinv(jtj / np.outer(scale, scale), rcond=1e-12) / np.outer(scale, scale)
+        cov = cov * s2 / n_eff_fraction
+        diag = np.diag(cov)
+    except np.linalg.LinAlgError:
+        diag = np.full(k, np.nan)
+    for p, xi, d in zip(params, x, diag):
+        if not np.isfinite(d) or d < 0:
+            out[p.name] = None
+            continue
+        se_x = math.sqrt(d)
+        out[p.name] = float(p.from_x(xi) * se_x) if p.log else float(se_x)
+    return out

@@ -1,0 +1,152 @@
+"""Zero-phase signal conditioning for identification.
+
+Friction is estimated from eq. 5, tau_F = tau - M qdd, which needs the second derivative of a
+quantised encoder signal.  Every estimate is formed with the same zero-phase low-pass
+(forward-backward Butterworth), and the model's friction is passed through that same filter
+before it is compared, so the filter smooths noise without biasing the fit.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+from bench.errors import InputError
+from bench.records import Record
+
+
+@dataclass
+class Conditioned:
+    """A record made ready for identification: every array has one entry per sample."""
+    t: np.ndarray
+    dt: float
+    q: np.ndarray           # measured position
+    v: np.ndarray           # velocity at the samples, low-passed (maps, regimes)
+    v_mid: np.ndarray       # velocity held over each interval, lightly smoothed (model input)
+    q_mid: np.ndarray       # position at interval midpoints
+    t_mid: np.ndarray
+    a: np.ndarray           # acceleration, low-passed
+    tau: np.ndarray         # applied torque, low-passed
+    cutoff: float           # Hz, of the low-pass applied to tau and a
+    frequency: float        # Hz, the excitation's fundamental
+    sos: np.ndarray         # the low-pass, to apply the same filter to model outputs
+
+    def lowpass(self, x: np.ndarray) -> np.ndarray:
+        return signal.sosfiltfilt(self.sos, x)
+
+    def friction(self, inertia: float) -> np.ndarray:
+        """Friction estimate of eq. 5 with inertia M."""
+        return self.tau - inertia * self.a
+
+
+def excitation_frequency(t: np.ndarray, tau: np.ndarray) -> float:
+    """Fundamental of the applied torque from the peak of its spectrum (Hann window)."""
+    x = tau - np.mean(tau)
+    n = len(x)
+    spec = np.abs(np.fft.rfft(x * np.hanning(n)))
+    freqs = np.fft.rfftfreq(n, d=(t[-1] - t[0]) / (n - 1))
+    spec[0] = 0.0
+    k = int(np.argmax(spec))
+    if 0 < k < len(spec) - 1:  # parabolic interpolation of the peak
+        a, b, c = np.log(spec[k - 1] + 1e-300), np.log(spec[k] + 1e-300), np.log(spec[k + 1] + 1e-300)
+        den = a - 2 * b + c
+        shift = 0.5 * (a - c) / den if den != 0 else 0.0
+        return float((k + shift) * freqs[1])
+    return float(freqs[k])
+
+
+def choose_cutoff(fs: float, f_exc: float) -> float:
+    """Low-pass cutoff: high enough to keep the presliding transients of a few tens of
+    excitation harmonics, low enough to keep double differentiation noise in check."""
+    return float(np.clip(40.0 * f_exc, 5.0, 0.05 * fs))
+
+
+def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
+              name: str = "record") -> Conditioned:
+    t, q = rec.t, rec.q
+    dt = rec.dt
+    fs = 1.0 / dt
+    f_exc = excitation_frequency(t, rec.tau)
+    if not np.isfinite(f_exc) or f_exc <= 0:
+        raise InputError(f"{name}: no periodic excitation found in tau")
+    cycles = rec.duration * f_exc
+    if cycles < min_cycles:
+        raise InputError(f"{name}: record is {cycles:.2f} excitation cycles long "
+                         f"(excitation {f_exc:.4g} Hz, {rec.duration:.4g} s); at least {min_cycles:g} are needed")
+    fc = choose_cutoff(fs, f_exc) if cutoff is None else float(cutoff)
+    if not 0 < fc < 0.5 * fs:
+        raise InputError(f"{name}: filter cutoff {fc:g} Hz must lie between 0 and the Nyquist frequency {0.5 * fs:g} Hz")
+    sos = signal.butter(4, fc, fs=fs, output="sos")
+    if rec.qd is not None:
+        v_raw = np.asarray(rec.qd, dtype=float)
+        a_raw = np.gradient(v_raw, dt)
+        v_int = 0.5 * (v_raw[1:] + v_raw[:-1])
+    else:
+        v_raw = np.gradient(q, dt)
+        a_raw = second_difference(q, dt)
+        v_int = np.diff(q) / dt
+    # the velocity that drives the model keeps more bandwidth than the comparison filter:
+    # the bristle state integrates it, so quantisation noise averages out
+    sos_v = signal.butter(2, min(4.0 * fc, 0.4 * fs), fs=fs, output="sos")
+    v_mid = signal.sosfiltfilt(sos_v, v_int)
+    v = signal.sosfiltfilt(sos, v_raw)
+    a = signal.sosfiltfilt(sos, a_raw)
+    # 'torque_hold: sample' marks torques sampled at t; by default a digital drive holds each
+    # command until the next sample
+    hold = str(rec.meta.get("torque_hold", "zoh")).lower()
+    if hold not in ("zoh", "sample"):
+        raise InputError(f"{name}: torque_hold must be 'zoh' or 'sample', not {hold!r}")
+    tau_raw = held_torque(rec.tau) if hold == "zoh" and rec.qd is None else rec.tau
+    tau = signal.sosfiltfilt(sos, tau_raw)
+    return Conditioned(t=t, dt=dt, q=q, v=v, v_mid=v_mid, q_mid=0.5 * (q[1:] + q[:-1]),
+                       t_mid=0.5 * (t[1:] + t[:-1]), a=a, tau=tau, cutoff=fc, frequency=f_exc,
+                       sos=sos)
+
+
+def second_difference(q: np.ndarray, dt: float) -> np.ndarray:
+    """(q[i+1] - 2 q[i] + q[i-1]) / dt^2: the narrowest stencil, so the torque it balances is
+    the one applied over [t[i-1], t[i+1]] (see ``held_torque``)."""
+    a = np.empty_like(q, dtype=float)
+    a[1:-1] = (q[2:] - 2.0 * q[1:-1] + q[:-2]) / dt ** 2
+    a[0], a[-1] = a[1], a[-2]
+    return a
+
+
+def held_torque(tau: np.ndarray) -> np.ndarray:
+    """Torque seen by the second difference at sample i when each command is held until the
+    next sample (zero-order hold): the mean of tau[i-1] and tau[i]."""
+    out = np.empty_like(tau, dtype=float)
+    out[1:] = 0.5 * (tau[1:] + tau[:-1])
+    out[0] = tau[0]
+    return out
+
+
+def zero_crossings(x: np.ndarray) -> np.ndarray:
+    """Indices i where x changes sign between i and i+1 (zeros count as the previous sign)."""
+    s = np.sign(x)
+    for i in range(1, len(s)):  # carry signs across exact zeros
+        if s[i] == 0:
+            s[i] = s[i - 1]
+    return np.nonzero(s[:-1] * s[1:] < 0)[0]
+
+
+def effective_sample_fraction(residual: np.ndarray, max_lag: int = 2000) -> float:
+    """N_eff / N from the integrated autocorrelation time of a residual (Geyer-style
+    truncation at the first non-positive pair), to inflate least-squares standard errors
+    for filtered, correlated residuals."""
+    r = residual - residual.mean()
+    n = len(r)
+    if n < 4 or not np.any(r):
+        return 1.0
+    m = min(max_lag, n - 1)
+    f = np.fft.rfft(r, 2 * n)
+    ac = np.fft.irfft(f * np.conj(f))[: m + 1]
+    ac = ac / ac[0]
+    tau_int = 1.0
+    for k in range(1, m, 2):
+        pair = ac[k] + ac[k + 1]
+        if pair <= 0:
+            break
+        tau_int += 2.0 * pair
+    return float(min(1.0, 1.0 / tau_int))
