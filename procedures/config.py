@@ -139,6 +139,10 @@ def _validate_joint(j, where: str) -> dict:
         raise InputError(f"{where}: transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
     if "preset" in j and not isinstance(j["preset"], str):
         raise InputError(f"{where}: preset must be a virtual joint preset name")
+    jt = j.get("joint_type", "revolute")
+    if jt not in ("revolute", "prismatic"):
+        raise InputError(f"{where}: joint_type must be revolute or prismatic, got {jt!r}")
+    out["joint_type"] = jt
     lo, hi = _pair(j, "position_limits", where)
     if not lo < hi:
         raise InputError(f"{where}: position_limits must be [lo, hi] with lo < hi, got {[lo, hi]}")
