@@ -79,8 +79,7 @@ class Store:
         self.path = self.dir / "runs.sqlite"
         self._local = threading.local()
         self._version: str | None = None
-        with self._tx() as c:
-            c.executescript(_SCHEMA)
+        self._conn().executescript(_SCHEMA)
 
     # --- connections -----------------------------------------------------------------------
     def _conn(self) -> sqlite3.Connection:

@@ -1,0 +1,103 @@
+"""``bench calibrate``: the overnight calibration from the command line.
+
+``register(app)`` adds the command to a Typer app (the lead wires it into ``bench``).
+Bad input prints one line on stderr and exits 2, without a traceback.  Exit 0 when every
+joint calibrated, 1 when the run ended but some joint failed (the report says why).
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from bench.errors import BenchError
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("calibrate")
+    def calibrate_cmd(
+        bench: str = typer.Option(..., "--bench", help="built-in bench (micro2, macro4) or a TOML file"),
+        joints: Optional[str] = typer.Option(None, "--joints", help="comma-separated joint ids (default: all)"),
+        json_out: Optional[Path] = typer.Option(None, "--json", help="also write the JSON report here"),
+        resume: bool = typer.Option(False, "--resume", help="continue the last interrupted calibration"),
+        data: Path = typer.Option(Path("bench-data"), "--data", help="directory of the run store"),
+        seed: int = typer.Option(0, "--seed", help="seed of the virtual drives"),
+        plots: bool = typer.Option(True, "--plots/--no-plots", help="write PNG plots"),
+    ) -> None:
+        """Search excitation, identify and validate by tracking, joint after joint."""
+        try:
+            code = _calibrate(bench, joints, json_out, resume, data, seed, plots)
+        except BenchError as e:
+            typer.echo(f"error: {e}", err=True)
+            raise typer.Exit(2)
+        raise typer.Exit(code)
+
+
+def _calibrate(bench, joints, json_out, resume, data, seed, plots) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from bench.errors import InputError
+    from bench.store import Store
+    from procedures.calibration import (STAGES, CalibrationSettings, calibrate, latest_resumable,
+                                        start_calibration)
+    from procedures.config import load_bench
+
+    ids = [j.strip() for j in joints.split(",") if j.strip()] if joints else None
+    if joints is not None and not ids:
+        raise InputError("--joints is empty")
+    cfg = load_bench(bench)          # validate before touching the store
+    chosen = cfg.select(ids)
+    try:
+        store = Store(data)
+    except (OSError, Exception) as e:
+        if isinstance(e, BenchError):
+            raise
+        raise InputError(f"{data}: cannot open the run store ({e.__class__.__name__}: {e})") from None
+    store.recover()
+    run_id = latest_resumable(store, bench) if resume else start_calibration(store, bench, chosen, seed)
+    planned = store.get_run(run_id)["config"]["joints"]
+    console = Console(stderr=True)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[status]}"),
+                  TimeElapsedColumn(), console=console, transient=False) as progress:
+        tasks = {j: progress.add_task(j, total=len(STAGES), status="") for j in planned}
+
+        def on_event(doc: dict) -> None:
+            d = doc["data"]
+            if doc["name"] == "stage" and d.get("joint") in tasks:
+                done = d["status"] in ("done", "failed", "skipped")
+                progress.update(tasks[d["joint"]], advance=1 if done else 0,
+                                status=f"{d['stage']}: {d['status']}")
+            elif doc["name"] == "trial" and d.get("joint") in tasks:
+                progress.update(tasks[d["joint"]], status=f"search: trial {d['index']} {d['outcome']}")
+
+        report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(plots=plots))
+    text = json.dumps(report, indent=2, default=str)
+    if json_out is not None:
+        try:
+            Path(json_out).write_text(text)
+        except OSError as e:
+            raise InputError(f"{json_out}: cannot write the report ({e.__class__.__name__})") from None
+    for jid, j in report["joints"].items():
+        console.print(f"{jid}: {j['status']}" + (f" — {j['reason']}" if j["reason"] else ""))
+    console.print(f"report: {report['files']['html']}")
+    return 0 if all(j["status"] == "succeeded" for j in report["joints"].values()) else 1
+
+
+def main() -> None:  # a stand-alone entry point until bench/cli.py wires register()
+    app = typer.Typer(add_completion=False)
+    register(app)
+
+    @app.command("version")
+    def _version():
+        import bench
+        typer.echo(bench.__version__)
+    app(prog_name="bench")
+
+
+if __name__ == "__main__":
+    main()
+    sys.exit(0)
