@@ -98,6 +98,7 @@ def search(rig: Rig, jid: str, settings: SearchSettings | None = None,
     res = ExcitationResult(joint=jid, ok=False, reason="")
     A, f = st.start_fraction * cap, freq_for(v_target)
     A_bad = math.inf          # smallest amplitude that left the window / overspeeded at this f
+    A_ok = 0.0                # largest amplitude that completed a trial inside the window
     best: tuple[Trial, Record] | None = None
     for n in range(st.max_trials):
         trial = Trial(n, float(A), float(f))
@@ -114,11 +115,16 @@ def search(rig: Rig, jid: str, settings: SearchSettings | None = None,
                 nxt_f = min(f * 1.4, f_max)          # same speed, less travel
             else:
                 A_bad = min(A_bad, A)
-                nxt_A = A * 0.8
+                if A_ok > 0 and A_bad < 1.15 * A_ok:
+                    _emit(emit, jid, trial)
+                    break  # bracketed: nothing between what stays inside and what leaves
+                nxt_A = math.sqrt(A_ok * A_bad) if A_ok > 0 else A * 0.8
         elif not m["moved"]:
+            A_ok = max(A_ok, A)
             trial.reason = "stuck: the joint did not break away"
             nxt_A = 2.0 * A
         else:
+            A_ok = max(A_ok, A)
             ok, why = _judge(m)
             fast_enough = m["v_peak"] >= 0.85 * v_target
             if ok:
@@ -139,7 +145,7 @@ def search(rig: Rig, jid: str, settings: SearchSettings | None = None,
             # frequency never comes down: less travel per cycle is always the safe side
             nxt_f = max(f, freq_for(v_next)) if travel <= sweep else min(f_max, f * travel / sweep)
         _emit(emit, jid, trial)
-        nxt_A = min(nxt_A, cap, 0.95 * A_bad)
+        nxt_A = min(nxt_A, cap, 0.95 * A_bad if not data["aborted"] else nxt_A)
         if nxt_A <= A * 1.02 and not data["aborted"] and nxt_f == f:
             break  # cannot grow any further
         A, f = nxt_A, nxt_f
@@ -182,7 +188,7 @@ def _extra_level(rig, jid, level, res, M, centre, window, st, emit, freq_for) ->
 
 
 def _failure_reason(trials: list[Trial], cap: float, A_bad: float, window) -> str:
-    moved = [t for t in trials if t.metrics.get("moved")]
+    moved = [t for t in trials if t.metrics.get("moved") and not t.metrics.get("aborted")]
     if not moved:
         return (f"cannot reach sliding: the joint did not break away up to amplitude "
                 f"{max(t.amplitude for t in trials):.4g} (cap {cap:.4g}, set by the torque limit)")
