@@ -186,17 +186,21 @@ def _starting_point(data: FitData, est: dict, M: float) -> dict:
     return cur
 
 
+def lugre_starts(data: FitData, est: dict, M: float) -> list[dict]:
+    """The dynamic cost has local minima: fit from the Section III estimates and from a
+    coarse search on the dynamic cost, and keep the better."""
+    starts = [_starting_point(data, est, M)]
+    if all(np.isfinite(est[k]) and est[k] > 0 for k in LUGRE_KEYS):
+        starts.append({k: est[k] for k in LUGRE_KEYS})
+    return starts
+
+
 def identify(rec: Record, inertia: float | None = None, cutoff: float | None = None,
              name: str = "record") -> Identification:
     data, M = prepare(rec, inertia, cutoff, name)
     est = section3_estimates(data, M, name)
-    # the dynamic cost has local minima: fit from the Section III estimates and from a
-    # coarse search on the dynamic cost, and keep the better
-    starts = [_starting_point(data, est, M)]
-    if all(np.isfinite(est[k]) and est[k] > 0 for k in LUGRE_KEYS):
-        starts.append({k: est[k] for k in LUGRE_KEYS})
     res = None
-    for start in starts:
+    for start in lugre_starts(data, est, M):
         data.z0 = _initial_bristle(data, est, start["sigma0"])
         params = [Param(k, start[k], lo=math.log(start[k]) - 9, hi=math.log(start[k]) + 9)
                   for k in LUGRE_KEYS]

@@ -1,0 +1,171 @@
+"""The ``bench`` command line.
+
+    bench simulate   a virtual joint under a sinusoidal torque -> record CSV
+    bench analyze    identify the LuGre model of a record, diagnose what it misses
+    bench calibrate  overnight calibration of a bench (procedures)
+    bench serve      the REST service (api)
+
+User errors print one line on stderr and exit with status 2.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from bench.errors import BenchError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Identify and compensate LuGre friction in robot joints.")
+err = Console(stderr=True)
+out = Console()
+
+
+def fail(message: str) -> None:
+    err.print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
+    raise typer.Exit(2)
+
+
+@app.command()
+def simulate(
+    joint: str = typer.Option("j1", help="virtual joint preset: linear, rotary, j1..j4"),
+    amplitude: Optional[float] = typer.Option(None, help="torque amplitude [N·m or N]; preset default if omitted"),
+    frequency: Optional[float] = typer.Option(None, help="excitation frequency [Hz]; preset default if omitted"),
+    duration: float = typer.Option(20.0, help="record length [s]"),
+    rate: float = typer.Option(1000.0, help="sample rate [Hz]"),
+    seed: int = typer.Option(0, help="noise seed"),
+    torque_noise: Optional[float] = typer.Option(None, help="std of the torque measurement noise"),
+    encoder_resolution: Optional[float] = typer.Option(None, help="position per encoder count"),
+    declared_inertia: Optional[float] = typer.Option(None, help="inertia written to the record (default: the true one)"),
+    param: List[str] = typer.Option([], "--param", help="override a friction parameter, e.g. --param Fc=2.0 (also delta)"),
+    effect: List[str] = typer.Option([], "--effect", help="inject a hidden effect, e.g. cogging:amplitude=0.4,pitch=0.025"),
+    output: Path = typer.Option(..., "--output", "-o", help="CSV file to write"),
+):
+    """Simulate a virtual joint under tau_m sin(w t) and write a record CSV."""
+    try:
+        from bench.effects.inject import parse_injections
+        from virtual_drives.joint import simulate_record
+        from virtual_drives.presets import preset
+        spec = preset(joint)
+        if param:
+            changes = {}
+            for p in param:
+                k, _, v = p.partition("=")
+                if k not in spec.friction.as_dict(with_delta=True):
+                    raise BenchError(f"--param {p!r}: unknown parameter {k!r}; known: Fc, Fs, alpha, sigma0, sigma1, sigma2, delta")
+                try:
+                    changes[k] = float(v)
+                except ValueError:
+                    raise BenchError(f"--param {p!r}: value must be a number") from None
+            spec = spec.with_(friction=spec.friction.with_(**changes))
+        ev, inertia_factor, delta = parse_injections(effect, spec)
+        if delta is not None:
+            spec = spec.with_(friction=spec.friction.with_(delta=delta))
+        a = amplitude if amplitude is not None else spec.excitation[0]
+        f = frequency if frequency is not None else spec.excitation[1]
+        if not (a > 0 and f > 0 and duration > 0 and rate > 0):
+            raise BenchError("amplitude, frequency, duration and rate must be positive")
+        declared = declared_inertia if declared_inertia is not None else spec.inertia * inertia_factor
+        sim = simulate_record(spec, a, f, duration, dt=1.0 / rate, seed=seed, extra=ev,
+                              declared_inertia=declared, torque_noise=torque_noise,
+                              encoder_resolution=encoder_resolution)
+        if effect:
+            sim.record.meta["injected"] = "; ".join(effect)
+        sim.record.to_csv(output)
+    except BenchError as e:
+        fail(str(e))
+    except OSError as e:
+        fail(f"cannot write {output}: {e.strerror}")
+    lo, hi = spec.position_limits
+    q = sim.true_q
+    out.print(f"wrote {output}: {len(q)} samples, joint {spec.name}, tau_m={a:g} at {f:g} Hz, "
+              f"q in [{q.min():.4g}, {q.max():.4g}] (workspace [{lo:g}, {hi:g}])")
+
+
+@app.command()
+def analyze(
+    file: Path = typer.Argument(..., help="record CSV (t, tau, q[, qd]) with # metadata"),
+    inertia: Optional[float] = typer.Option(None, help="M_jj; overrides the record's metadata"),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="write the JSON report here"),
+    plots: Optional[Path] = typer.Option(None, help="directory for PNG plots"),
+    report: Optional[Path] = typer.Option(None, help="write an HTML report (with plots) here"),
+    add: Optional[str] = typer.Option(None, help="refit with these effects, comma-separated"),
+    no_diagnosis: bool = typer.Option(False, "--no-diagnosis", help="identify only"),
+    cutoff: Optional[float] = typer.Option(None, help="low-pass cutoff [Hz] (default: automatic)"),
+):
+    """Identify the LuGre model of a record and diagnose what it misses."""
+    from bench.analysis import analyze_record
+    from bench.records import read_csv
+    try:
+        rec = read_csv(file)
+        effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
+        result = analyze_record(rec, inertia=inertia, add=effects, diagnose=not no_diagnosis,
+                                cutoff=cutoff, name=str(file))
+        if plots is not None or report is not None:
+            result.write_plots(plots or (report.parent / (report.stem + "_plots")))
+        if report is not None:
+            result.write_html(report)
+        doc = result.report()
+        if json_out is not None:
+            json_out.write_text(json.dumps(doc, indent=2))
+    except BenchError as e:
+        fail(str(e))
+    except OSError as e:
+        fail(f"{e.filename or file}: {e.strerror}")
+    _print_report(doc)
+
+
+def _print_report(doc: dict) -> None:
+    t = Table(title="Identified LuGre model", show_lines=False)
+    for col in ("parameter", "value", "std. error", "identifiable"):
+        t.add_column(col)
+    for k, v in doc["parameters"].items():
+        se = doc["uncertainty"].get(k)
+        t.add_row(k, f"{v:.6g}", "-" if se is None else f"{se:.3g}",
+                  "yes" if doc["identifiable"].get(k) else "NO")
+    out.print(t)
+    fit = doc["fit"]
+    out.print(f"fit: rms error {fit['rms_error']:.4g}, NRMSE {fit['nrmse']:.4f} "
+              f"({fit.get('fit_percent', 0):.1f} % fit)")
+    if "baseline" in doc:
+        out.print(f"held-out rms error: baseline {doc['baseline']['rms_error']:.4g}"
+                  + (f" -> final {doc['final']['rms_error']:.4g} with {', '.join(doc['final']['effects']) or 'no effects'}"
+                     if doc.get("final") else ""))
+    for d in doc.get("diagnosis", []):
+        mark = "*" if d["significant"] else " "
+        out.print(f" {mark} {d['effect']:<28} {d['rms_before']:.4g} -> {d['rms_after']:.4g}  {d['evidence']}",
+                  markup=False, highlight=False)
+    for w in doc.get("warnings", []):
+        out.print(f"warning: {w}", markup=False, highlight=False)
+
+
+def _register_plugins() -> None:
+    """Sub-commands that live with their layer (procedures, api)."""
+    for mod in ("procedures.cli", "api.cli"):
+        try:
+            module = __import__(mod, fromlist=["register"])
+        except ModuleNotFoundError as e:
+            if e.name == mod:  # that layer is not installed; anything else is a real bug
+                continue
+            raise
+        module.register(app)
+
+
+_register_plugins()
+
+
+def main() -> None:
+    try:
+        app()
+    except BenchError as e:  # a plugin command that let one through
+        err.print(f"error: {e}", markup=False, highlight=False)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()

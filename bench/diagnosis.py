@@ -1,0 +1,288 @@
+"""Which physical effect is the model missing?  Screen, rank, add, refit, repeat.
+
+Held-out scoring: the record's excitation cycles are dealt into three interleaved folds; a
+model is fitted on two and scored on the third, in turn.  The model is simulated along the
+measured velocity, so holding cycles out needs no re-simulation, only masking.
+
+Screening is a cross-validated Gauss-Newton step around the current fit: the residual is
+regressed on the model's sensitivities to its own parameters (so LuGre can re-adjust) plus
+the candidate effect's sensitivities (finite differences of the same simulation, with any
+nonlinear hyper-parameter such as a pitch found beforehand from the residual's signature).
+An effect is significant when it explains at least ``MIN_EXPLAINED`` of the held-out residual
+variance and its gain is consistent across held-out half-cycles (paired t >= ``T_CRIT``);
+candidates are ranked by held-out error with a BIC-style penalty per parameter, so that of two
+effects explaining the same, the simpler wins.  The top significant effect is then refitted
+properly (nonlinear least squares, all parameters together) and the loop repeats.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bench.effects import EFFECTS, Context, Effect, get
+from bench.errors import InputError
+from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, fit, predict
+from bench.signals import effective_sample_fraction
+
+MIN_EXPLAINED = 0.15
+T_CRIT = 2.0
+MAX_STEPS = 4
+N_FOLDS = 3
+
+
+@dataclass
+class Model:
+    values: dict
+    effects: list[Effect] = field(default_factory=list)
+    params: list[Param] = field(default_factory=list)
+
+    @property
+    def appliers(self):
+        return [e.apply for e in self.effects]
+
+    def names(self) -> list[str]:
+        return [e.name for e in self.effects]
+
+
+@dataclass
+class Screen:
+    effect: str
+    init: dict
+    beta: dict
+    mse_before: float
+    mse_after: float
+    explained: float
+    t_stat: float
+    score: float
+    significant: bool
+
+
+class CrossValidation:
+    """Scores linear corrections of a residual on held-out cycles."""
+
+    def __init__(self, data: FitData, n_folds: int = N_FOLDS):
+        c = data.c
+        step = max(1, int(1.0 / (8.0 * c.cutoff * c.dt)))  # residuals are low-passed
+        self.idx = np.nonzero(data.mask)[0][::step]
+        phase = (c.t[self.idx] - c.t[0]) * c.frequency
+        cycle = np.floor(phase).astype(int)
+        ncyc = int(cycle.max() - cycle.min() + 1)
+        self.n_folds = int(min(n_folds, max(ncyc, 2)))
+        self.fold = (cycle - cycle.min()) % self.n_folds
+        blocks = np.floor(2 * phase).astype(int)
+        _, self.block = np.unique(blocks, return_inverse=True)
+        self.n_blocks = int(self.block.max() + 1)
+
+    def sse(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Held-out squared error per half-cycle block of r after fitting X on the other
+        folds.  X and r are on ``self.idx``."""
+        out = np.zeros(self.n_blocks)
+        scale = np.linalg.norm(X, axis=0)
+        scale[scale == 0] = 1.0
+        Xs = X / scale
+        for k in range(self.n_folds):
+            test = self.fold == k
+            beta, *_ = np.linalg.lstsq(Xs[~test], r[~test], rcond=1e-10)
+            e = r[test] - Xs[test] @ beta
+            np.add.at(out, self.block[test], e * e)
+        return out
+
+    def fit_all(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
+        beta, *_ = np.linalg.lstsq(X, r, rcond=1e-12)
+        return beta
+
+    def counts(self) -> np.ndarray:
+        return np.bincount(self.block, minlength=self.n_blocks).astype(float)
+
+
+def _column(data, values, appliers, base, key, step, idx):
+    v = dict(values)
+    v[key] = v[key] + step
+    return (predict(data, v, appliers)[idx] - base[idx]) / step
+
+
+def model_columns(data: FitData, model: Model, base: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Sensitivities of the current model to all its fitted parameters."""
+    cols = []
+    for p in model.params:
+        x = model.values[p.name]
+        step = 1e-4 * abs(x) if p.log else max(1e-4 * abs(x), 1e-6 * (np.std(data.friction) or 1.0))
+        if step == 0:
+            step = 1e-6
+        cols.append(_column(data, model.values, model.appliers, base, p.name, step, idx))
+    return np.column_stack(cols)
+
+
+def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossValidation,
+           sse_before: np.ndarray, n_eff: float) -> Screen | None:
+    """Best variant of ``effect`` by penalised held-out error."""
+    best = None
+    counts = cv.counts()
+    mse_before = float(sse_before.sum() / counts.sum())
+    for init in effect.variants(ctx):
+        values = dict(model.values, **init)
+        appliers = model.appliers + [effect.apply]
+        keys = [k for k in init if k not in effect.hyper]
+        X = np.column_stack([_column(ctx.data, values, appliers, ctx.model, k, effect.fd_step(k, ctx), cv.idx)
+                             for k in keys])
+        full = np.column_stack([J, X])
+        r = ctx.residual[cv.idx]
+        sse_after = cv.sse(full, r)
+        mse_after = float(sse_after.sum() / counts.sum())
+        d = (sse_before - sse_after) / np.maximum(counts, 1)
+        t = float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
+        explained = 1.0 - mse_after / mse_before if mse_before > 0 else 0.0
+        score = n_eff * math.log(max(mse_after, 1e-300)) + len(keys) * math.log(max(n_eff, 2.0))
+        beta_all = cv.fit_all(full, r)
+        beta = {k: float(b) for k, b in zip(keys, beta_all[J.shape[1]:])}
+        s = Screen(effect.name, init, beta, mse_before, mse_after, explained, t, score,
+                   explained >= MIN_EXPLAINED and t >= T_CRIT)
+        if best is None or s.score < best.score:
+            best = s
+    return best
+
+
+def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
+    start = {k: init[k] + beta.get(k, 0.0) for k in init}
+    params = effect.params(start)
+    out = []
+    for p in params:
+        if p.name in effect.hyper:  # searched: refine locally only
+            x = p.to_x(p.value)
+            width = 0.2 if p.name.endswith("pitch") else 3.0
+            p = Param(p.name, p.value, p.log, x - width, x + width)
+        out.append(p)
+    return out
+
+
+def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
+          inertia: float) -> tuple[Model, FitResult]:
+    """Fit LuGre, the effects already added and ``effect`` together.  A missing effect
+    distorts the LuGre fit it was missing from, so besides starting from the current values,
+    LuGre is also re-identified (Section III + start search) on the friction estimate with
+    the effect's screened contribution removed; the better fit wins."""
+    from bench.identify import NotIdentifiable, lugre_starts, section3_estimates
+    new = _effect_params(effect, init, beta)
+    others = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
+              for p in model.params if p.name not in LUGRE_KEYS]
+    appliers = model.appliers + [effect.apply]
+    values = dict(model.values, **{p.name: p.value for p in new})
+    starts = [{k: model.values[k] for k in LUGRE_KEYS}]
+    try:
+        contribution = predict(data, values, appliers) - predict(data, model.values, model.appliers)
+        others_contrib = predict(data, model.values, model.appliers) - predict(
+            data, {k: model.values[k] for k in LUGRE_KEYS})
+        cleaned = FitData(c=data.c, friction=data.friction - contribution - others_contrib,
+                          mask=data.mask, z0=data.z0)
+        est = section3_estimates(cleaned, inertia)
+        starts += lugre_starts(cleaned, est, inertia)
+    except (NotIdentifiable, ValueError, FloatingPointError):
+        pass
+    best = None
+    for start in starts:
+        lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
+                 for k in LUGRE_KEYS]
+        params = lugre + others + new
+        res = fit(data, params, fixed=dict(values, **start), appliers=appliers, max_nfev=60)
+        if best is None or res.cost < best[1].cost:
+            best = (params, res)
+    params, res = best
+    return Model(values=res.values, effects=model.effects + [effect], params=params), res
+
+
+@dataclass
+class Step:
+    effect: str
+    significant: bool
+    forced: bool
+    rms_before: float
+    rms_after: float | None
+    evidence: str
+    values: dict
+    screens: list[Screen]
+
+
+@dataclass
+class Diagnosis:
+    baseline_rms: float
+    final_rms: float
+    model: Model
+    steps: list[Step]
+    remaining: list[Screen]        # last screening of effects not added
+    contexts: list[Context]        # model state before each step and at the end
+
+    def entries(self) -> list[dict]:
+        """Ranked diagnosis list of the JSON contract: effects added, in order, then the
+        rest by their last screening."""
+        out = []
+        for s in self.steps:
+            out.append({"effect": s.effect, "significant": s.significant, "added": True,
+                        "rms_before": s.rms_before, "rms_after": s.rms_after, "evidence": s.evidence})
+        for sc in self.remaining:
+            eff = get(sc.effect)
+            vals = dict(self.model.values, **{k: sc.init[k] + sc.beta.get(k, 0.0) for k in sc.init})
+            out.append({"effect": sc.effect, "significant": sc.significant, "added": False,
+                        "rms_before": math.sqrt(sc.mse_before), "rms_after": math.sqrt(sc.mse_after),
+                        "evidence": eff.evidence(vals, sc.explained, self.contexts[-1])})
+        return out
+
+
+def diagnose(data: FitData, values: dict, meta: dict, inertia: float,
+             add: list[str] | None = None, max_steps: int = MAX_STEPS, auto: bool = True) -> Diagnosis:
+    """``add``: effects to add first, in order, whatever their significance; then, when
+    ``auto``, keep adding the top significant effect until none is left."""
+    forced = [get(n) for n in (add or [])]
+    for e in forced:
+        if sum(1 for f in forced if f.name == e.name) > 1:
+            raise InputError(f"--add names {e.name} twice")
+    model = Model(values={k: values[k] for k in LUGRE_KEYS},
+                  params=[Param(k, values[k]) for k in LUGRE_KEYS])
+    cv = CrossValidation(data)
+    counts = cv.counts()
+    steps: list[Step] = []
+    contexts: list[Context] = []
+    baseline = None
+    pending: Step | None = None
+    while True:
+        base = predict(data, model.values, model.appliers)
+        ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia)
+        contexts.append(ctx)
+        J = model_columns(data, model, base, cv.idx)
+        r = ctx.residual[cv.idx]
+        sse_before = cv.sse(J, r)
+        rms_now = math.sqrt(sse_before.sum() / counts.sum())
+        if baseline is None:
+            baseline = rms_now
+        if pending is not None:
+            pending.rms_after = rms_now
+            pending.evidence = get(pending.effect).evidence(
+                model.values, 1.0 - (rms_now / pending.rms_before) ** 2, ctx)
+            pending = None
+        n_eff = len(r) * effective_sample_fraction(r)
+        candidates = [e for e in EFFECTS.values() if e.name not in model.names() and e.applicable(ctx)]
+        for e in forced:
+            if not e.applicable(ctx):
+                raise InputError(f"effect {e.name} does not apply to a {meta.get('joint_type', 'revolute')} joint")
+        screens = [s for s in (screen(e, ctx, model, J, cv, sse_before, n_eff) for e in candidates) if s]
+        screens.sort(key=lambda s: s.score)
+        nxt = None
+        if forced:
+            e = forced.pop(0)
+            nxt = next((s for s in screens if s.effect == e.name), None)
+            is_forced = True
+        elif auto and len(steps) < max_steps:
+            nxt = next((s for s in screens if s.significant), None)
+            is_forced = False
+        if nxt is None:
+            remaining = screens
+            break
+        effect = get(nxt.effect)
+        model, _ = refit(data, model, effect, nxt.init, nxt.beta, inertia)
+        pending = Step(effect=nxt.effect, significant=nxt.significant, forced=is_forced,
+                       rms_before=rms_now, rms_after=None, evidence="", values=dict(model.values),
+                       screens=screens)
+        steps.append(pending)
+    return Diagnosis(baseline_rms=baseline, final_rms=rms_now, model=model, steps=steps,
+                     remaining=remaining, contexts=contexts)

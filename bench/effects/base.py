@@ -1,0 +1,136 @@
+"""What an effect is: a physically parameterised term that extends the LuGre joint.
+
+A new effect is one small module defining a subclass of ``Effect`` and registering it in
+``bench.effects``.  It says
+  - its ``name`` and the parameters it adds (``variants``: starting values, found from the
+    residual's signature where a parameter is nonlinear, like a pitch or a time constant);
+  - its term (``apply``: write the values into the model: LuGre parameters, the
+    ``bench.terms`` vector, or the inertia correction);
+  - how to tell a technician what it found (``evidence``);
+  - how the virtual drives inject it (``inject``).
+The diagnosis screens every effect the same way (``bench.diagnosis``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bench.errors import InputError
+from bench.fitting import FitData, Param
+
+
+@dataclass
+class Context:
+    """The state of the analysis an effect looks at."""
+    data: FitData
+    values: dict          # current model values (LuGre + effects already added)
+    model: np.ndarray     # current model prediction (filtered), every sample
+    meta: dict            # record metadata
+    inertia: float = 1.0  # declared M_jj
+
+    @property
+    def residual(self) -> np.ndarray:
+        return self.data.friction - self.model
+
+    @property
+    def revolute(self) -> bool:
+        return self.meta.get("joint_type", "revolute") != "prismatic"
+
+    @property
+    def position_unit(self) -> str:
+        return "rad" if self.revolute else "m"
+
+    @property
+    def torque_unit(self) -> str:
+        return "N·m" if self.revolute else "N"
+
+
+class Effect:
+    name: str = ""
+    summary: str = ""
+    hyper: tuple[str, ...] = ()       # nonlinear parameters found by search, not screened
+
+    def applicable(self, ctx: Context) -> bool:
+        return True
+
+    def variants(self, ctx: Context) -> list[dict]:
+        """Candidate starting values (the effect at zero strength, with any searched
+        hyper-parameters).  Several variants compete, e.g. numbers of harmonics."""
+        raise NotImplementedError
+
+    def params(self, init: dict) -> list[Param]:
+        """Fitted parameters; linear by default (override for positive/log ones)."""
+        return [Param(k, v, log=False) for k, v in init.items()]
+
+    def fd_step(self, key: str, ctx: Context) -> float:
+        """Finite-difference step for the screening column of ``key``."""
+        return 1e-3 * max(float(np.std(ctx.data.friction)), 1e-12)
+
+    def apply(self, values: dict, extra: dict, ev: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def evidence(self, values: dict, explained: float, ctx: Context) -> str:
+        raise NotImplementedError
+
+    def inject(self, kw: dict, ev: np.ndarray, spec) -> dict:
+        """Write the effect into a virtual joint.  Returns changes to the simulation that
+        are not terms: {"inertia_factor": x} or {"delta": d}."""
+        raise NotImplementedError
+
+
+def explained_text(explained: float) -> str:
+    return f"explains {100 * explained:.0f} % of the held-out residual variance"
+
+
+def number(kw: dict, key: str, effect: str, default: float | None = None) -> float:
+    if key not in kw:
+        if default is None:
+            raise InputError(f"effect {effect}: missing parameter {key!r}")
+        return default
+    try:
+        return float(kw[key])
+    except ValueError:
+        raise InputError(f"effect {effect}: parameter {key}={kw[key]!r} is not a number") from None
+
+
+def check_known(kw: dict, allowed: tuple[str, ...], effect: str) -> None:
+    for k in kw:
+        if k not in allowed:
+            raise InputError(f"effect {effect}: unknown parameter {k!r}; known: {', '.join(allowed)}")
+
+
+def position_periodogram(q: np.ndarray, y: np.ndarray, pitches: np.ndarray,
+                         weight: np.ndarray | None = None) -> np.ndarray:
+    """Fraction of ``y``'s variance explained by a sine/cosine of q at each pitch (the basis
+    optionally multiplied by ``weight``).  Used to find a pitch from a residual."""
+    yy = y - y.mean()
+    total = float(yy @ yy) or 1.0
+    out = np.empty(len(pitches))
+    for i, p in enumerate(pitches):
+        ph = 2 * np.pi * q / p
+        X = np.column_stack([np.sin(ph), np.cos(ph)])
+        if weight is not None:
+            X = X * weight[:, None]
+        X = X - X.mean(axis=0)
+        coef, res, *_ = np.linalg.lstsq(X, yy, rcond=None)
+        fitted = X @ coef
+        out[i] = float(fitted @ fitted) / total
+    return out
+
+
+def pitch_grid(q: np.ndarray, n: int = 400) -> np.ndarray:
+    """Candidate pitches: from a quarter of the travel down to 1/150 of it, uniform in
+    spatial frequency (the resolution a periodogram has)."""
+    span = float(np.ptp(q))
+    f_lo, f_hi = 1.5 / span, 150.0 / span
+    return 1.0 / np.linspace(f_lo, f_hi, n)
+
+
+def refine_pitch(q: np.ndarray, y: np.ndarray, pitch: float, weight: np.ndarray | None = None) -> float:
+    span = float(np.ptp(q))
+    f0 = 1.0 / pitch
+    df = 1.0 / span
+    fine = 1.0 / np.linspace(max(f0 - df, 0.5 / span), f0 + df, 81)
+    score = position_periodogram(q, y, fine, weight)
+    return float(fine[int(np.argmax(score))])

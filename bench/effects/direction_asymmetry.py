@@ -1,0 +1,36 @@
+"""direction_asymmetry: Coulomb and stiction levels differ for positive and negative
+velocity (seal preload, gear-mesh asymmetry): s(v) is scaled by 1 + a sgn(v)."""
+from __future__ import annotations
+
+from bench import terms
+from bench.effects.base import Context, Effect, check_known, explained_text, number
+
+
+class DirectionAsymmetry(Effect):
+    name = "direction_asymmetry"
+    summary = "friction levels differ by direction"
+
+    def variants(self, ctx: Context) -> list[dict]:
+        return [{"asym": 0.0}]
+
+    def fd_step(self, key, ctx):
+        return 1e-3
+
+    def apply(self, values, extra, ev):
+        ev[terms.ASYM] += values["asym"]
+
+    def evidence(self, values, explained, ctx):
+        a = values["asym"]
+        Fc = ctx.values["Fc"]
+        return (f"friction levels depend on the direction of motion: Coulomb level "
+                f"{Fc * (1 + a):.4g} for positive and {Fc * (1 - a):.4g} {ctx.torque_unit} for negative "
+                f"velocity ({abs(2 * a / (1 - abs(a))):.0%} apart); {explained_text(explained)}")
+
+    def inject(self, kw, ev, spec):
+        check_known(kw, ("ratio",), self.name)
+        a = number(kw, "ratio", self.name)
+        if not -0.9 < a < 0.9:
+            from bench.errors import InputError
+            raise InputError("effect direction_asymmetry: ratio must lie in (-0.9, 0.9)")
+        ev[terms.ASYM] += a
+        return {}

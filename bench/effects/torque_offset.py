@@ -1,0 +1,26 @@
+"""torque_offset: a constant torque bias (current-sensor offset, cable pull, unbalanced
+spring) present in both directions of motion and at standstill."""
+from __future__ import annotations
+
+from bench import terms
+from bench.effects.base import Context, Effect, check_known, explained_text, number
+
+
+class TorqueOffset(Effect):
+    name = "torque_offset"
+    summary = "constant torque bias"
+
+    def variants(self, ctx: Context) -> list[dict]:
+        return [{"offset": 0.0}]
+
+    def apply(self, values, extra, ev):
+        ev[terms.OFFSET] += values["offset"]
+
+    def evidence(self, values, explained, ctx):
+        return (f"residual has a constant bias of {values['offset']:+.3g} {ctx.torque_unit} in both "
+                f"directions of motion and at standstill; {explained_text(explained)}")
+
+    def inject(self, kw, ev, spec):
+        check_known(kw, ("value",), self.name)
+        ev[terms.OFFSET] += number(kw, "value", self.name)
+        return {}

@@ -1,0 +1,108 @@
+"""PNG figures in the paper's style: the friction-velocity map (Figs. 1/5), the presliding
+force-displacement curve (Section III-B) and the effect of a wrong inertia (Fig. 2)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from bench.fitting import FitData, predict  # noqa: E402
+from bench.signals import zero_crossings  # noqa: E402
+
+
+def _units(data_meta: dict) -> tuple[str, str]:
+    prismatic = data_meta.get("joint_type") == "prismatic"
+    return ("m/s", "N") if prismatic else ("rad/s", "N·m")
+
+
+def friction_map(data: FitData, values: dict, path: Path, meta: dict | None = None,
+                 appliers=(), title: str = "Friction-velocity map") -> Path:
+    vu, tu = _units(meta or {})
+    m = data.mask
+    model = predict(data, values, appliers)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(data.c.v[m], data.friction[m], ".", ms=1.5, alpha=0.35, color="tab:blue", label="measured (eq. 5)")
+    ax.plot(data.c.v[m], model[m], ".", ms=1.0, alpha=0.5, color="tab:red", label="model along the record")
+    vv = np.linspace(data.c.v[m].min(), data.c.v[m].max(), 600)
+    from bench.lugre import LuGreParams
+    p = LuGreParams(**{k: values[k] for k in ("Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2")},
+                    delta=values.get("delta", 1.0))
+    ax.plot(vv, p.steady_state(vv), "k-", lw=1, label="steady state (6c)")
+    ax.set_xlabel(f"velocity [{vu}]")
+    ax.set_ylabel(f"friction [{tu}]")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def presliding(data: FitData, values: dict, path: Path, meta: dict | None = None,
+               appliers=()) -> Path:
+    """Friction against displacement around each low-speed friction reversal."""
+    vu, tu = _units(meta or {})
+    pu = "m" if (meta or {}).get("joint_type") == "prismatic" else "rad"
+    c, F = data.c, data.friction
+    model = predict(data, values, appliers)
+    vmax = np.percentile(np.abs(c.v), 99.5)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    shown = 0
+    half = int(max(5, 0.05 / (c.frequency * c.dt)))
+    for i in zero_crossings(F):
+        if abs(c.v[i]) > 0.1 * vmax or not data.mask[i] or i < half or i + half >= len(F):
+            continue
+        sl = slice(i - half, i + half)
+        dq = c.q[sl] - c.q[i]
+        ax.plot(dq, F[sl], "b-", lw=0.8, alpha=0.6, label="measured" if shown == 0 else None)
+        ax.plot(dq, model[sl], "r--", lw=0.8, alpha=0.8, label="model" if shown == 0 else None)
+        shown += 1
+        if shown >= 6:
+            break
+    s0 = values["sigma0"]
+    lim = values["Fs"] / s0
+    xs = np.linspace(-lim, lim, 10)
+    ax.plot(xs, s0 * xs, "k:", lw=1, label=f"slope sigma0 = {s0:.4g}")
+    ax.set_xlabel(f"displacement from reversal [{pu}]")
+    ax.set_ylabel(f"friction [{tu}]")
+    ax.set_title("Presliding force-displacement")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def inertia_effect(data: FitData, inertia: float, path: Path, meta: dict | None = None,
+                   factors=(0.5, 1.0, 1.5)) -> Path:
+    """Fig. 2: the map recomputed with under- and over-estimated inertia."""
+    vu, tu = _units(meta or {})
+    c, m = data.c, data.mask
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for f, style in zip(factors, ("g-", "k-", "m-")):
+        ax.plot(c.v[m], c.friction(f * inertia)[m], style, lw=0.6, alpha=0.7,
+                label=f"M = {f:g} x {inertia:.4g}")
+    ax.set_xlabel(f"velocity [{vu}]")
+    ax.set_ylabel(f"friction estimate [{tu}]")
+    ax.set_title("Effect of the inertia on the friction-velocity map (Fig. 2)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def loop_area(v: np.ndarray, F: np.ndarray) -> float:
+    """Signed area enclosed by the map on its v > 0 half (positive: followed
+    counter-clockwise).  Fig. 2's 'direction in which the graph is followed'."""
+    pos = v > 0
+    vv, FF = v[pos], F[pos]
+    # shoelace over consecutive samples of the positive-velocity excursions
+    return float(0.5 * np.sum(vv[:-1] * FF[1:] - vv[1:] * FF[:-1]))
