@@ -1,0 +1,114 @@
+"""End-to-end: `calibrate` on both presets, unattended, through the plug factory."""
+import json
+
+import numpy as np
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from bench.lugre import LuGreParams
+from bench.store import Store
+from bench.traces import read_trace
+from procedures.cli import register
+from procedures.config import load_bench
+from procedures.tracking import tracking_test
+
+from proc_helpers import make_rig, tolerance_failures, truth
+
+app = typer.Typer()
+register(app)
+
+
+@app.command("noop")
+def _noop():  # a second command keeps typer in multi-command mode
+    pass
+
+
+def run_cli(*args):
+    return CliRunner().invoke(app, ["calibrate", *args])
+
+
+def check_limits(store: Store, cfg) -> None:
+    for run in store.list_runs(limit=1000):
+        d = store.run_dir(run["id"])
+        if not any(d.glob("*.parquet")):
+            continue
+        tr = read_trace(d)
+        for j in cfg.joints:
+            q = tr.column(f"q_{j['id']}").to_numpy()
+            lo, hi = j["position_limits"]
+            assert lo <= q.min() and q.max() <= hi, f"{j['id']} left its limits in run {run['id']}"
+
+
+@pytest.fixture(scope="module")
+def macro4(tmp_path_factory):
+    data = tmp_path_factory.mktemp("macro4")
+    out = data / "report.json"
+    r = run_cli("--bench", "macro4", "--data", str(data), "--json", str(out), "--seed", "11", "--no-plots")
+    assert r.exit_code == 0, r.output
+    return data, json.loads(out.read_text())
+
+
+@pytest.mark.parametrize("preset,seed", [("micro2", 23)])
+def test_calibrate_micro2(tmp_path, preset, seed):
+    out = tmp_path / "r.json"
+    r = run_cli("--bench", preset, "--data", str(tmp_path), "--json", str(out), "--seed", str(seed))
+    assert r.exit_code == 0, r.output
+    report = json.loads(out.read_text())
+    cfg = load_bench(preset)
+    for jid, j in report["joints"].items():
+        ident = j["stages"]["identify"]["result"]
+        assert tolerance_failures(ident["parameters"], truth(cfg, jid), ident["identifiable"]) == []
+        assert j["stages"]["validate"]["result"]["improvement"] > 1.0
+    check_limits(Store(tmp_path), cfg)
+    assert (tmp_path / "runs" / report["run_id"] / "report.html").exists()
+
+
+def test_calibrate_macro4_parameters_and_limits(macro4):
+    data, report = macro4
+    cfg = load_bench("macro4")
+    assert set(report["joints"]) == {"j1", "j2", "j3", "j4"}
+    for jid, j in report["joints"].items():
+        assert j["status"] == "succeeded", j["reason"]
+        ident = j["stages"]["identify"]["result"]
+        assert tolerance_failures(ident["parameters"], truth(cfg, jid), ident["identifiable"]) == [], jid
+    check_limits(Store(data), cfg)
+
+
+def test_macro4_tracking_compensation(macro4):
+    """With the identified model: RMS error <= 1/5 of uncompensated, <= 1.5x the true model's."""
+    _, report = macro4
+    cfg = load_bench("macro4")
+    rig = make_rig(cfg, seed=23)
+    try:
+        for jid in cfg.ids:
+            params = LuGreParams.from_dict(report["joints"][jid]["stages"]["identify"]["result"]["parameters"])
+            res = tracking_test(rig, jid, {"none": None, "identified": params, "true": truth(cfg, jid)})
+            assert res["identified"]["rms_error"] <= res["none"]["rms_error"] / 5, (jid, res)
+            assert res["identified"]["rms_error"] <= 1.5 * res["true"]["rms_error"], (jid, res)
+    finally:
+        rig.park()
+
+
+def test_unreachable_sliding_ends_with_reason(tmp_path):
+    toml = tmp_path / "tight.toml"
+    raw_text = "\n".join([
+        'name = "tight"', "[[joints]]", 'id = "j3"', 'preset = "j3"', 'transport = "simulated"',
+        "inertia = 30.0", "gravity = [0.0, 0.0]", "position_limits = [-0.01, 0.01]",
+        "velocity_limit = 0.38", "torque_limit = 1500.0", "counts_per_unit = 394704.0", ""])
+    toml.write_text(raw_text)
+    out = tmp_path / "r.json"
+    r = run_cli("--bench", str(toml), "--data", str(tmp_path / "d"), "--json", str(out), "--no-plots")
+    assert r.exit_code == 1, r.output
+    j3 = json.loads(out.read_text())["joints"]["j3"]
+    assert j3["status"] == "failed" and "cannot reach sliding" in j3["reason"] and "workspace" in j3["reason"]
+    assert j3["stages"]["identify"]["status"] == "skipped"
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--bench", "nope"], "no such bench file"),
+    (["--bench", "macro4", "--joints", "j9"], "no joint 'j9'"),
+])
+def test_bad_input_exit_2(tmp_path, args, message):
+    r = CliRunner().invoke(app, ["calibrate", *args, "--data", str(tmp_path)])
+    assert r.exit_code == 2 and message in r.output and "Traceback" not in r.output
