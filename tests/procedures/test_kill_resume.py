@@ -1,0 +1,61 @@
+"""A calibration killed with SIGKILL mid-run: interrupted, partial trace readable, resumable."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import typer
+from typer.testing import CliRunner
+
+from bench.store import Store
+from bench.traces import read_trace
+from procedures.cli import register
+
+
+def test_sigkill_then_resume(tmp_path):
+    data = tmp_path / "data"
+    cmd = [sys.executable, "-m", "procedures.cli", "calibrate", "--bench", "macro4", "--joints", "j3,j4",
+           "--data", str(data), "--no-plots", "--seed", "23"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    victim = None
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and victim is None:
+            time.sleep(0.2)
+            if not (data / "runs.sqlite").exists():
+                continue
+            for r in Store(data).list_runs(kind="excitation", state="running"):
+                if r["joint_id"] == "j4" and any(Store(data).run_dir(r["id"]).glob("chunk-*.parquet")):
+                    victim = r["id"]
+        assert victim is not None, "calibration never reached j4's search"
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    store = Store(data)
+    store.recover()
+    cal = store.list_runs(kind="calibration")[0]
+    assert cal["state"] == "interrupted"
+    assert store.get_run(victim)["state"] == "interrupted"
+    partial = read_trace(store.run_dir(victim))
+    assert partial.num_rows > 500 and "q_j4" in partial.column_names
+    plan = {(p["joint"], p["stage"]): p["status"] for p in cal["result"]["plan"]}
+    assert plan[("j3", "validate")] == "done" and plan[("j4", "search")] == "running"
+
+    app = typer.Typer()
+    register(app)
+    app.command("noop")(lambda: None)
+    out = tmp_path / "r.json"
+    r = CliRunner().invoke(app, ["calibrate", "--bench", "macro4", "--resume", "--data", str(data),
+                                 "--json", str(out), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    report = json.loads(out.read_text())
+    assert report["run_id"] == cal["id"]
+    assert {j: v["status"] for j, v in report["joints"].items()} == {"j3": "succeeded", "j4": "succeeded"}
+    assert store.get_run(cal["id"])["state"] == "succeeded"
+    # j3's finished stages were kept, not redone
+    assert len(store.list_runs(kind="excitation", joint_id="j3")) == 1
+    assert len(store.list_runs(kind="excitation", joint_id="j4")) == 2
