@@ -192,15 +192,19 @@ def _stage_identify(store, cfg, rig, plan, step, emit, st, run_id):
 
 
 def identify_record(rec) -> tuple[dict, LuGreParams]:
-    """Identification (and, once available, the analysis with discrepancy diagnosis)."""
-    from bench.identify import identify
-    ident = identify(rec)
-    report = ident.report()
+    """bench.analysis (identification + discrepancy diagnosis) when it is usable, else
+    bench.identify alone.  The model to compensate with is the identified LuGre."""
     try:
         from bench.analysis import analyze_record
-    except ImportError:
+    except (ImportError, SyntaxError) as e:
+        from bench.identify import identify
+        ident = identify(rec)
+        report = ident.report()
+        report.setdefault("warnings", []).append(f"analysis unavailable ({e.__class__.__name__})")
         return report, ident.params
-    return dict(analyze_record(rec)), ident.params
+    analysis = analyze_record(rec, inertia=rec.inertia)
+    report = analysis.report()
+    return report, LuGreParams.from_dict(report["parameters"])
 
 
 def _stage_validate(store, cfg, rig, plan, step, emit, st, run_id):
