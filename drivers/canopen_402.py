@@ -30,6 +30,7 @@ from drivers.canopen_bus import SharedBus
 from drivers.protocols import (CommunicationTimeout, DriveError, DriveFault, DriveState,
                                DriveStatus, LimitViolation, ProtocolViolation, Sample,
                                WatchdogExpired)
+from drivers.pacing import Pacer
 from drivers.registry import register
 from drivers.safety import SampleGuard
 
@@ -71,7 +72,8 @@ class Cia402Drive:
         self.cw = CW_SHUTDOWN
         self.emcy: canopen.emcy.EmcyError | None = None
         self.last_heartbeat = time.monotonic()
-        self.consumed = 0              # bus SYNC number of the last sample returned
+        self.pacer = Pacer.shared(j["clock"], j["control_period"])
+        self.consumed = 0              # pacer tick of the last sample returned
         self.last: Sample | None = None
         self._tp1 = (0, 0, 0)
         self._latest: tuple | None = None   # (seq, Sample)
@@ -230,10 +232,8 @@ class Cia402Drive:
             raw = int(round(torque / self.rated * 1000)) if enabled else 0
             self._send(self.cw, raw)
             bus = self.bus
-            with bus.sync_lock:
-                if self.consumed >= bus.sync_seq:
-                    bus.sync()
-                target = bus.sync_seq
+            tick = self.pacer.next_tick(self.consumed)
+            target = bus.sync_for(tick)
             deadline = time.monotonic() + self.timeout
             with self.cond:
                 while self._latest is None or self._latest[0] < target:
@@ -244,7 +244,7 @@ class Cia402Drive:
                             f"{self.timeout * 1e3:.0f} ms of SYNC {target}")
                     self.cond.wait(left)
                 _, s, sw = self._latest
-            self.consumed = target
+            self.consumed = tick
             return self._check(s, sw, enabled)
         except DriveError as exc:
             self.latched = exc
@@ -295,7 +295,7 @@ class Cia402Drive:
         self._await_state("SWITCHED ON", CW_SWITCH_ON)
         with self.cond:
             self._latest, self.last = None, None
-        self.consumed = self.bus.sync_seq
+        self.consumed = self.pacer.tick
         self.guard.reset()
         self.cw, self.want, self.latched = CW_ENABLE, DriveState.ENABLED, None
         self._send(CW_ENABLE, 0)

@@ -1,13 +1,9 @@
 """One CAN bus seen from the host, shared by every CiA 402 drive on it: the python-canopen
 ``Network``, the SYNC producer and the host's heartbeat.
 
-SYNC policy: every drive on a bus samples at the same SYNC.  A drive's ``cycle`` asks for a
-SYNC only when no SYNC has been sent since its own last sample, so calling ``cycle`` on each
-joint of a bus in turn costs one SYNC per round.  Lock-step: the SYNC goes out at once
-(simulated time advances one period per SYNC).  Real-time: the SYNC goes out at the next
-period boundary of the bus's own grid (``time.perf_counter``); a round that starts later
-than one whole period after its boundary skips the missed boundaries and counts them as
-overruns, it never sends a burst of SYNCs to catch up.
+SYNC policy: every drive on a bus samples at the same SYNC, one SYNC per tick of the
+host's period grid (``drivers.pacing.Pacer``).  Calling ``cycle`` on each joint of a bus in
+turn is one round and costs one SYNC; lock-step drives advance one period per SYNC.
 """
 from __future__ import annotations
 
@@ -61,8 +57,7 @@ class SharedBus:
         self.sync_seq = 0
         self.last_sync = 0.0           # perf_counter of the last SYNC
         self.t0 = time.perf_counter()
-        self._due: float | None = None
-        self.overruns = 0
+        self.synced_tick = -1
         self.silent = False            # test hook: the host "dies" (no heartbeat, no SYNC)
         self._stop = threading.Event()
         self._hb = threading.Thread(target=self._heartbeat, daemon=True,
@@ -79,25 +74,16 @@ class SharedBus:
                 except Exception:
                     pass
 
-    def sync(self) -> None:
-        """Send one SYNC (paced in real time).  Caller holds ``sync_lock``."""
-        if self.silent:
-            return
-        if self.clock == "realtime":
-            now = time.perf_counter()
-            if self._due is None:
-                self._due = now
-            else:
-                self._due += self.dt
-                late = now - self._due
-                if late > self.dt:
-                    missed = int(late / self.dt)
-                    self.overruns += missed
-                    self._due += missed * self.dt
-            _sleep_until(self._due)
-        self.sync_seq += 1
-        self.last_sync = time.perf_counter()
-        self.network.send_message(SYNC_ID, b"")
+    def sync_for(self, tick: int) -> int:
+        """Send the SYNC of pacer tick ``tick`` unless it went out already; return the SYNC
+        number whose answers the caller must wait for."""
+        with self.sync_lock:
+            if self.synced_tick < tick and not self.silent:
+                self.synced_tick = tick
+                self.sync_seq += 1
+                self.last_sync = time.perf_counter()
+                self.network.send_message(SYNC_ID, b"")
+            return self.sync_seq
 
     def release(self) -> None:
         with _BUSES_LOCK:
@@ -112,12 +98,3 @@ class SharedBus:
         except Exception:
             pass
 
-
-def _sleep_until(deadline: float) -> None:
-    # sleep most of the way, then yield-spin the last ~0.2 ms: time.sleep alone overshoots
-    # by 50-100 us plus scheduler noise, which would eat the p99 budget at 1 kHz
-    while True:
-        left = deadline - time.perf_counter()
-        if left <= 0:
-            return
-        time.sleep(left - 2e-4 if left > 3e-4 else 0)

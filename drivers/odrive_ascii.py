@@ -1,0 +1,271 @@
+"""An ODrive axis over its ASCII protocol on a serial port (pyserial).
+
+One cycle is one pipelined write, ``c <axis> <torque>``, ``f <axis>``, ``r axis<n>.error``,
+and two reply lines: "<pos> <vel>" (turns, turns/s) and the axis error bits.  ``c`` feeds
+the ODrive watchdog (``axis<n>.config.watchdog_timeout``), so the watchdog is fed on every
+cycle; a host that stops cycling leaves the axis to its watchdog, which idles the motor.
+
+Replies are matched by shape (two numbers / one integer), so a garbage line is skipped
+instead of shifting every later reply by one; with ``checksum`` on, each line carries the
+GCode checksum ``*<xor of the bytes before '*'>`` (decimal) and a corrupt reply is dropped.
+A cycle whose replies were corrupt is read again once ("f" and "r" only: re-sending "c"
+would advance a lock-step drive twice) before it fails with ``ProtocolViolation``.
+``f`` has no torque field: ``Sample.torque`` is the torque commanded while enabled.
+"""
+from __future__ import annotations
+
+import select
+import time
+
+import serial
+
+from drivers.protocols import (CommunicationTimeout, DriveError, DriveFault, DriveState,
+                               DriveStatus, LimitViolation, ProtocolViolation, Sample,
+                               WatchdogExpired)
+from drivers.pacing import Pacer
+from drivers.registry import register
+from drivers.safety import SampleGuard
+
+ERR_WATCHDOG = 0x800
+ERR_ENDSTOPS = 0x1000 | 0x2000
+AXIS_IDLE, AXIS_CLOSED_LOOP = 1, 8
+
+
+def checksum(text: str) -> int:
+    c = 0
+    for b in text.encode("ascii"):
+        c ^= b
+    return c
+
+
+def _shape(fields: list[str], shape: str) -> list | None:
+    try:
+        if shape == "ff" and len(fields) == 2:
+            return [float(fields[0]), float(fields[1])]
+        if shape == "i" and len(fields) == 1:
+            return [int(fields[0])]
+        if shape == "f" and len(fields) == 1:
+            return [float(fields[0])]
+    except ValueError:
+        pass
+    return None
+
+
+@register("serial")
+class OdriveAsciiDrive:
+    def __init__(self, j: dict):
+        self.j = j
+        self.name = j["id"]
+        self.axis = int(j["axis"])
+        self.tpu = float(j["turns_per_unit"])
+        self.timeout = float(j["reply_timeout"])
+        self.use_checksum = bool(j["checksum"])
+        self.guard = SampleGuard(j)
+        self.lockstep = j["clock"] == "lockstep"
+        self.dt = float(j["control_period"])
+        self.want = DriveState.DISABLED
+        self.latched: DriveError | None = None
+        self.last: Sample | None = None
+        self.ticks = 0                   # torque commands sent: lock-step time base
+        self.pacer = Pacer.shared(j["clock"], self.dt)
+        self.consumed = 0
+        self.t0 = time.monotonic()
+        self.buf = bytearray()
+        try:
+            self.ser = serial.Serial(j["port"], baudrate=j["baudrate"], timeout=0,
+                                     write_timeout=max(self.timeout, 0.5))
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise DriveError(f"{self.name}: cannot open serial port {j['port']!r}: {exc}") \
+                from exc
+        self.fd = self.ser.fileno()
+        try:
+            self._configure()
+        except BaseException:
+            self.ser.close()
+            raise
+
+    # --- line protocol ----------------------------------------------------------------------
+    def _encode(self, lines: list[str]) -> bytes:
+        if self.use_checksum:
+            lines = [f"{ln} *{checksum(ln + ' ')}" for ln in lines]
+        return ("\n".join(lines) + "\n").encode("ascii")
+
+    def _send(self, lines: list[str]) -> None:
+        try:
+            self.ser.write(self._encode(lines))
+        except (serial.SerialException, OSError) as exc:
+            raise CommunicationTimeout(f"{self.name}: write to {self.j['port']} failed: {exc}") \
+                from exc
+
+    def _readline(self, deadline: float) -> bytes | None:
+        while True:
+            nl = self.buf.find(b"\n")
+            if nl >= 0:
+                line = bytes(self.buf[:nl]).rstrip(b"\r")
+                del self.buf[:nl + 1]
+                return line
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            ready, _, _ = select.select([self.fd], [], [], left)
+            if ready:
+                try:
+                    self.buf += self.ser.read(self.ser.in_waiting or 1)
+                except (serial.SerialException, OSError) as exc:
+                    raise CommunicationTimeout(f"{self.name}: read from {self.j['port']} "
+                                               f"failed: {exc}") from exc
+
+    def _fields(self, raw: bytes) -> list[str] | None:
+        try:
+            text = raw.decode("ascii")
+        except UnicodeDecodeError:
+            return None
+        if self.use_checksum:
+            body, star, cs = text.rpartition("*")
+            if not star or not cs.strip().isdigit() or int(cs) != checksum(body):
+                return None
+            text = body
+        return text.split()
+
+    def _exchange(self, lines: list[str], shapes: list[str]) -> list[list]:
+        self._send(lines)
+        deadline = time.monotonic() + self.timeout
+        got, bad = [], 0
+        while len(got) < len(shapes):
+            raw = self._readline(deadline)
+            if raw is None:
+                if bad:
+                    raise ProtocolViolation(f"{self.name}: {bad} corrupt or unexpected "
+                                            f"repl{'y' if bad == 1 else 'ies'} to {lines}")
+                raise CommunicationTimeout(f"{self.name}: no reply from {self.j['port']} within "
+                                           f"{self.timeout * 1e3:.0f} ms to {lines}")
+            fields = self._fields(raw)
+            value = None if fields is None else _shape(fields, shapes[len(got)])
+            if value is None:
+                bad += 1            # garbage or a stray late reply: skip it, keep reading
+                continue
+            got.append(value)
+        return got
+
+    def _resync(self, quiet: float = 0.005) -> None:
+        """Drop everything the drive sends until it has been quiet for ``quiet`` s."""
+        self.buf.clear()
+        while select.select([self.fd], [], [], quiet)[0]:
+            self.ser.read(self.ser.in_waiting or 1)
+
+    def _r(self, prop: str, shape: str = "f"):
+        return self._exchange([f"r {prop}"], [shape])[0][0]
+
+    def _w(self, prop: str, value) -> None:
+        self._send([f"w {prop} {value}"])
+
+    # --- configuration -------------------------------------------------------------------------
+    def _configure(self) -> None:
+        j, a = self.j, f"axis{self.axis}"
+        self._resync()
+        self._r("vbus_voltage")              # is anybody there?
+        self._w(f"{a}.config.enable_watchdog", 0)
+        self._w(f"{a}.config.watchdog_timeout", repr(float(j["watchdog_s"])))
+        self._w(f"{a}.motor.config.torque_lim", repr(float(j["torque_limit"])))
+        self._w(f"{a}.controller.config.vel_limit", repr(j["velocity_limit"] * self.tpu))
+        self._w(f"{a}.controller.config.control_mode", 1)     # torque control
+        if self._r(f"{a}.controller.config.control_mode", "i") != 1:
+            raise DriveError(f"{self.name}: axis {self.axis} refused torque control mode")
+
+    # --- TorqueDrive -----------------------------------------------------------------------------
+    def cycle(self, torque: float) -> Sample:
+        if self.latched is not None:
+            raise DriveError(f"{self.name}: stopped after an error ({self.latched}); "
+                             f"call enable() to re-arm")
+        try:
+            torque = self.guard.command(torque)
+            enabled = self.want == DriveState.ENABLED
+            tau = torque if enabled else 0.0
+            a = self.axis
+            read = [f"f {a}", f"r axis{a}.error"]
+            self.consumed = self.pacer.next_tick(self.consumed)
+            self.ticks += 1
+            try:
+                (pos, vel), (err,) = self._exchange([f"c {a} {tau!r}"] + read, ["ff", "i"])
+            except ProtocolViolation:
+                self._resync()                # one retry after garbage, without "c"
+                (pos, vel), (err,) = self._exchange(read, ["ff", "i"])
+            t = self.ticks * self.dt if self.lockstep else time.monotonic() - self.t0
+            s = Sample(t=t, position=pos / self.tpu, velocity=vel / self.tpu, torque=tau,
+                       state=DriveState.FAULT if err else self.want, host_time=time.monotonic())
+            return self._check(s, err, enabled)
+        except DriveError as exc:
+            self.latched = exc
+            self.quick_stop()
+            raise
+
+    def _check(self, s: Sample, err: int, enabled: bool) -> Sample:
+        if err & ERR_WATCHDOG:
+            raise WatchdogExpired(f"{self.name}: axis {self.axis} watchdog expired "
+                                  f"(error 0x{err:X}); motor idle")
+        if err & ERR_ENDSTOPS:
+            raise LimitViolation(f"{self.name}: axis {self.axis} stopped at its position limit "
+                                 f"(error 0x{err:X}, position {s.position:.6g})")
+        if err:
+            raise DriveFault(f"{self.name}: axis {self.axis} error 0x{err:X}", err)
+        self.guard.plausible(s, self.last)
+        self.last = s
+        if enabled:
+            self.guard.limits(s)
+        return s
+
+    def enable(self) -> None:
+        a = f"axis{self.axis}"
+        self._resync()
+        if self._r(f"{a}.error", "i"):
+            self._send(["sc"])
+            err = self._r(f"{a}.error", "i")
+            if err:
+                raise DriveFault(f"{self.name}: axis {self.axis} error 0x{err:X} did not clear",
+                                 err)
+        self._w(f"{a}.controller.input_torque", 0)
+        self._send([f"u {self.axis}"])
+        self._w(f"{a}.config.enable_watchdog", 1)
+        self._w(f"{a}.requested_state", AXIS_CLOSED_LOOP)
+        deadline = time.monotonic() + max(10 * self.timeout, 0.5)
+        while self._r(f"{a}.current_state", "i") != AXIS_CLOSED_LOOP:
+            if time.monotonic() > deadline:
+                raise ProtocolViolation(f"{self.name}: axis {self.axis} did not enter closed "
+                                        f"loop control")
+            time.sleep(0.002)
+        self.last, self.latched, self.want = None, None, DriveState.ENABLED
+        self.guard.reset()
+
+    def quick_stop(self) -> None:
+        self.want = DriveState.QUICK_STOP
+        try:     # velocity 0 brakes to standstill (and feeds the watchdog); never raises
+            self._send([f"v {self.axis} 0 0"])
+        except Exception:
+            pass
+
+    def disable(self) -> None:
+        self.want = DriveState.DISABLED
+        try:
+            self._send([f"w axis{self.axis}.requested_state {AXIS_IDLE}",
+                        f"w axis{self.axis}.config.enable_watchdog 0"])
+        except Exception:
+            pass
+
+    def status(self) -> DriveStatus:
+        a = f"axis{self.axis}"
+        state = self._r(f"{a}.current_state", "i")
+        err = self._r(f"{a}.error", "i")
+        faults = [f"axis error 0x{err:X}"] if err else []
+        if self.latched is not None:
+            faults.append(f"host stopped the drive: {self.latched}")
+        if err:
+            return DriveStatus(DriveState.FAULT, faults)
+        if state != AXIS_CLOSED_LOOP:
+            return DriveStatus(DriveState.DISABLED, faults)
+        return DriveStatus(DriveState.QUICK_STOP if self.want == DriveState.QUICK_STOP
+                           else DriveState.ENABLED, faults)
+
+    def close(self) -> None:
+        if self.ser.is_open:
+            self.disable()
+            self.ser.close()

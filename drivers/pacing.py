@@ -1,0 +1,63 @@
+"""The host's control-period grid, shared by every drive with the same clock and period.
+
+``cycle`` on each joint in turn is one round: the first drive of a round waits for the next
+period boundary (real time) and opens a new tick, the others join that tick.  A round that
+starts more than one whole period after its boundary skips the missed boundaries and counts
+them as overruns; it never bursts to catch up.  Lock-step ticks open at once.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+_PACERS: dict[tuple, "Pacer"] = {}
+_LOCK = threading.Lock()
+
+
+class Pacer:
+    @classmethod
+    def shared(cls, clock: str, period: float) -> "Pacer":
+        with _LOCK:
+            key = (clock, float(period))
+            if key not in _PACERS:
+                _PACERS[key] = cls(clock == "realtime", float(period))
+            return _PACERS[key]
+
+    def __init__(self, realtime: bool, period: float):
+        self.realtime = realtime
+        self.dt = period
+        self.tick = 0
+        self.overruns = 0
+        self.due: float | None = None
+        self.lock = threading.Lock()
+        self.record: list[float] | None = None   # tick times, when a benchmark asks
+
+    def next_tick(self, consumed: int) -> int:
+        """The tick a drive that last used tick ``consumed`` must use now."""
+        with self.lock:
+            if consumed >= self.tick:
+                if self.realtime:
+                    self._wait_boundary()
+                self.tick += 1
+                if self.record is not None:
+                    self.record.append(time.perf_counter())
+            return self.tick
+
+    def _wait_boundary(self) -> None:
+        now = time.perf_counter()
+        if self.due is None or now - self.due > 1.0:   # first round, or after a pause
+            self.due = now
+            return
+        self.due += self.dt
+        late = now - self.due
+        if late > self.dt:
+            missed = int(late / self.dt)
+            self.overruns += missed
+            self.due += missed * self.dt
+        # sleep most of the way, then yield-spin the last 0.2 ms: time.sleep alone
+        # overshoots by 50-100 us plus scheduler noise, too much of a 1 ms period
+        while True:
+            left = self.due - time.perf_counter()
+            if left <= 0:
+                return
+            time.sleep(left - 2e-4 if left > 3e-4 else 0)
