@@ -222,36 +222,35 @@ class Cia402Drive:
                           f"(register 0x{err.register:02X})", err.code)
 
     def cycle(self, torque: float) -> Sample:
-        if self.latched is not None:
-            raise DriveError(f"{self.name}: stopped after an error ({self.latched}); "
-                             f"call enable() to re-arm")
+        """Enabled: command ``torque`` for the next period.  Otherwise (after ``quick_stop``,
+        ``disable`` or an error) command nothing and report the drive's state, so a caller
+        can watch the stop; only communication failures raise then."""
+        enabled = self.want == DriveState.ENABLED
         try:
             self._alive()
-            torque = self.guard.command(torque)
-            enabled = self.want == DriveState.ENABLED
-            raw = int(round(torque / self.rated * 1000)) if enabled else 0
+            raw = int(round(self.guard.command(torque) / self.rated * 1000)) if enabled else 0
             self._send(self.cw, raw)
-            bus = self.bus
             tick = self.pacer.next_tick(self.consumed)
-            target = bus.sync_for(tick)
+            target = self.bus.sync_for(tick)
             deadline = time.monotonic() + self.timeout
             with self.cond:
                 while self._latest is None or self._latest[0] < target:
                     left = deadline - time.monotonic()
-                    if left <= 0 or bus.silent:
+                    if left <= 0 or self.bus.silent:
                         raise CommunicationTimeout(
                             f"{self.name}: no TPDO from node {self.node_id} within "
                             f"{self.timeout * 1e3:.0f} ms of SYNC {target}")
                     self.cond.wait(left)
                 _, s, sw = self._latest
             self.consumed = tick
-            return self._check(s, sw, enabled)
+            return self._check(s, sw) if enabled else s
         except DriveError as exc:
-            self.latched = exc
-            self.quick_stop()
+            if enabled:
+                self.latched = exc
+                self.quick_stop()
             raise
 
-    def _check(self, s: Sample, sw: int, enabled: bool) -> Sample:
+    def _check(self, s: Sample, sw: int) -> Sample:
         prev, g = self.last, self.guard
         if self.has_clock:
             g.fresh(s.t, prev)
@@ -259,13 +258,12 @@ class Cia402Drive:
             raise self._fault(sw)
         g.plausible(s, prev)
         self.last = s
-        if enabled and s.state != DriveState.ENABLED:
+        if s.state != DriveState.ENABLED:
             if sw & 0x0800:
                 raise LimitViolation(f"{self.name}: drive stopped at its internal limit "
                                      f"(statusword 0x{sw:04X}, position {s.position:.6g})")
             raise DriveError(f"{self.name}: drive left operation enabled: {state_of(sw)}")
-        if enabled:
-            g.limits(s)
+        g.limits(s)
         return s
 
     def _await_state(self, want: str, cw: int) -> None:

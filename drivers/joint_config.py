@@ -7,9 +7,10 @@ Keys (units: rad / N·m for revolute joints, m / N for prismatic ones):
   CANopen : node_id, interface, channel, bitrate, host, port (socketcand), host_node_id
   serial  : port (device path), baudrate, axis, checksum, turns_per_unit
   scaling : counts_per_unit (encoder counts per unit), rated_torque (N·m at 1000 per-mille)
-  model   : inertia, gravity [a, b], extra (bench.terms vector, virtual drives only), q0
-  safety  : position_limits [lo, hi], velocity_limit, torque_limit, hold, heartbeat_ms,
-            watchdog_s, reply_timeout
+  model   : inertia (declared M_jj: number or table {joint, q, value}), gravity [a, b],
+            extra (bench.terms vector, virtual drives only), q0 (virtual start position)
+  safety  : position_limits [lo, hi], velocity_limit, torque_limit, hold (lock position),
+            brake (holding brake while unpowered), heartbeat_ms, watchdog_s, reply_timeout
   timing  : clock ("realtime" | "lockstep"), control_period (s)
 """
 from __future__ import annotations
@@ -77,8 +78,17 @@ def complete_joint(joint: dict) -> dict:
     j.setdefault("inertia", 1.0)
     j.setdefault("gravity", [0.0, 0.0])
     j.setdefault("joint_type", "revolute")
-    for key in ("inertia", "velocity_limit", "torque_limit", "counts_per_unit"):
+    for key in ("velocity_limit", "torque_limit", "counts_per_unit"):
         j[key] = _num(j, key)
+    inertia = j["inertia"]   # the declared M_jj: a number, or a table {joint, q, value}
+    if isinstance(inertia, dict) and inertia.get("value"):
+        try:
+            values = [float(v) for v in inertia["value"]]
+        except (TypeError, ValueError):
+            raise InputError(f"joint {name!r}: inertia table values must be numbers") from None
+        j["drive_inertia"] = sum(values) / len(values)
+    else:
+        j["drive_inertia"] = _num(j, "inertia")
     j["position_limits"] = _pair(j, "position_limits", ordered=True)
     j["gravity"] = _pair(j, "gravity", ordered=False)
     # 16-bit per-mille torque: a rated torque of torque_limit/30 covers +-torque_limit with
@@ -88,8 +98,17 @@ def complete_joint(joint: dict) -> dict:
     if j["torque_limit"] / j["rated_torque"] * 1000.0 > 32767:
         raise InputError(f"joint {name!r}: torque_limit {j['torque_limit']} is more than "
                          f"32.767 x rated_torque {j['rated_torque']}: not representable in 0x6071")
-    j.setdefault("hold", j["gravity"] != [0.0, 0.0])
-    j["hold"] = bool(j["hold"])
+    lo, hi = j["position_limits"]
+    j.setdefault("hold", 0.5 * (lo + hi))
+    if isinstance(j["hold"], bool):
+        raise InputError(f"joint {name!r}: hold is the lock position (a number), got {j['hold']!r}")
+    j["hold"] = _num(j, "hold", positive=False)
+    if not lo <= j["hold"] <= hi:
+        raise InputError(f"joint {name!r}: hold position {j['hold']} is outside "
+                         f"position_limits [{lo}, {hi}]")
+    # a holding brake locks the joint whenever the power stage is off; gravity-loaded joints
+    # have one unless told otherwise
+    j["brake"] = bool(j.get("brake", j["gravity"] != [0.0, 0.0]))
     j.setdefault("heartbeat_ms", 50)
     j["heartbeat_ms"] = int(_num(j, "heartbeat_ms"))
     j.setdefault("watchdog_s", max(0.25, 4 * j["heartbeat_ms"] / 1000.0))

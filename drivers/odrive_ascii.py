@@ -174,13 +174,12 @@ class OdriveAsciiDrive:
 
     # --- TorqueDrive -----------------------------------------------------------------------------
     def cycle(self, torque: float) -> Sample:
-        if self.latched is not None:
-            raise DriveError(f"{self.name}: stopped after an error ({self.latched}); "
-                             f"call enable() to re-arm")
+        """Enabled: command ``torque`` for the next period.  Otherwise (after ``quick_stop``,
+        ``disable`` or an error) command 0 and report, so a caller can watch the stop (a
+        lock-step drive still advances one period); only communication failures raise."""
+        enabled = self.want == DriveState.ENABLED
         try:
-            torque = self.guard.command(torque)
-            enabled = self.want == DriveState.ENABLED
-            tau = torque if enabled else 0.0
+            tau = self.guard.command(torque) if enabled else 0.0
             a = self.axis
             read = [f"f {a}", f"r axis{a}.error"]
             self.consumed = self.pacer.next_tick(self.consumed)
@@ -193,13 +192,14 @@ class OdriveAsciiDrive:
             t = self.ticks * self.dt if self.lockstep else time.monotonic() - self.t0
             s = Sample(t=t, position=pos / self.tpu, velocity=vel / self.tpu, torque=tau,
                        state=DriveState.FAULT if err else self.want, host_time=time.monotonic())
-            return self._check(s, err, enabled)
+            return self._check(s, err) if enabled else s
         except DriveError as exc:
-            self.latched = exc
-            self.quick_stop()
+            if enabled:
+                self.latched = exc
+                self.quick_stop()
             raise
 
-    def _check(self, s: Sample, err: int, enabled: bool) -> Sample:
+    def _check(self, s: Sample, err: int) -> Sample:
         if err & ERR_WATCHDOG:
             raise WatchdogExpired(f"{self.name}: axis {self.axis} watchdog expired "
                                   f"(error 0x{err:X}); motor idle")
@@ -210,8 +210,7 @@ class OdriveAsciiDrive:
             raise DriveFault(f"{self.name}: axis {self.axis} error 0x{err:X}", err)
         self.guard.plausible(s, self.last)
         self.last = s
-        if enabled:
-            self.guard.limits(s)
+        self.guard.limits(s)
         return s
 
     def enable(self) -> None:

@@ -32,5 +32,10 @@ def open_drive(joint: dict) -> TorqueDrive:
         if transport not in _MODULES:
             raise InputError(f"joint {j['id']!r}: no driver for transport {transport!r}; "
                              f"known: {', '.join(TRANSPORTS)}")
-        importlib.import_module(_MODULES[transport])
+        module = importlib.import_module(_MODULES[transport])
+        if transport not in DRIVERS:     # a plug module with a factory but no decorator
+            factory = getattr(module, f"open_{transport}", None)
+            if factory is None:
+                raise InputError(f"joint {j['id']!r}: {module.__name__} registers no driver")
+            DRIVERS[transport] = factory
     return DRIVERS[transport](j)

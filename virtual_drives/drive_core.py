@@ -15,7 +15,7 @@ Drive-side safety (each also reachable through the protocol's own objects/proper
   position limits  leaving [lo, hi] while enabled -> quick stop, ``internal_limit`` set
   watchdog         no host sign of life for ``watchdog_s`` -> fault, torque off
   quick stop       brakes with at most max_torque to standstill, then power off
-  hold             a holding brake locks the joint whenever the power stage is off
+  brake            a holding brake locks the joint whenever the power stage is off
 """
 from __future__ import annotations
 
@@ -39,19 +39,20 @@ class DriveCore:
         self.name = joint["id"]
         self.clock = clock
         self.dt = float(joint["control_period"])
-        spec = preset(joint["preset"]).with_(inertia=joint["inertia"],
-                                             gravity=tuple(joint["gravity"]))
+        # the preset is the physical truth (its inertia, friction); the joint's gravity and
+        # ``extra`` effects pass through, its declared inertia is only the drive's own model
+        spec = preset(joint["preset"]).with_(gravity=tuple(joint["gravity"]))
         extra = joint.get("extra")
         self.vj = VirtualJoint(spec, dt=self.dt, seed=seed,
                                extra=None if extra is None else np.asarray(extra, float),
-                               q0=joint.get("q0"))
+                               q0=joint.get("q0", joint["hold"]))
         self.vj.advance(0.0, periods=0)   # load the compiled kernel now, not on the first SYNC
         self.lock = threading.RLock()
         self.state = DriveState.DISABLED
         self.max_torque = float(joint["torque_limit"])
         self.limits = tuple(joint["position_limits"])
         self.limits_enabled = True
-        self.hold = bool(joint["hold"])
+        self.brake = bool(joint["brake"])
         self.command = 0.0            # latched torque command
         self.applied = 0.0            # torque applied over the last period
         self.internal_limit = False
@@ -158,13 +159,13 @@ class DriveCore:
         if self.state == DriveState.QUICK_STOP:
             # brake to standstill with the drive's own velocity loop (it knows the inertia,
             # not the friction): dead-beat, limited to max torque
-            tau = -self.vj.spec.inertia * self.vj.state.v / self.dt
+            tau = -self.joint["drive_inertia"] * self.vj.state.v / self.dt
             return min(max(tau, -self.max_torque), self.max_torque)
         return 0.0
 
     def _one_period(self) -> None:
         tau = self._torque()
-        brake = self.hold and not self.powered
+        brake = self.brake and not self.powered
         if brake:
             s = self.vj.state
             self.vj.state = replace(s, t=s.t + self.dt, v=0.0)
