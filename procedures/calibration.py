@@ -78,8 +78,15 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
                 step.update(status="skipped", reason="an earlier stage of this joint failed")
                 continue
             cancel.check()
-            if rig is None and step["stage"] != "identify":
+            if step["stage"] == "identify":
+                if rig is not None and not rig.parked:
+                    rig.park()      # nobody cycles the drives while fitting: disable, not starve
+                    rig.parked = True
+            elif rig is None:
                 rig = _open_rig(cfg, run["seed"] or 0, cancel, st)
+            elif rig.parked:
+                rig.start()
+                rig.parked = False
             step["status"] = "running"
             store.set_result(run_id, {"plan": plan})
             emit.event("stage", joint=step["joint"], stage=step["stage"], status="running")
@@ -114,10 +121,25 @@ def _joint_failed(plan, joint) -> bool:
 
 
 def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettings) -> Rig:
-    drives = open_drives(cfg.joints, force_simulated=st.force_simulated, seed=seed,
-                         control_period=cfg.control_period)
-    rig = Rig(cfg, drives, cancel)
-    rig.start()
+    """Simulated plugs in-process, or (force_simulated=False) the emulated CANopen/serial
+    drives of a lock-step virtual bench reached through the driver registry."""
+    vb, joints = None, cfg.joints
+    if not st.force_simulated:
+        from virtual_drives.launch import VirtualBench  # the bench's drive side, not a driver
+        vb = VirtualBench(cfg.joints, clock=cfg.clock, control_period=cfg.control_period, seed=seed)
+        vb.start()
+        joints = vb.joints
+    try:
+        drives = open_drives(joints, force_simulated=st.force_simulated, seed=seed,
+                             control_period=cfg.control_period)
+        rig = Rig(cfg, drives, cancel)
+        rig.virtual_bench = vb
+        rig.parked = False
+        rig.start()
+    except BaseException:
+        if vb is not None:
+            vb.close()
+        raise
     return rig
 
 
@@ -132,6 +154,8 @@ def _close(rig: Rig) -> None:
             d.close()
         except Exception:
             pass
+    if getattr(rig, "virtual_bench", None) is not None:
+        rig.virtual_bench.close()
 
 
 def _child(store, run_id, rig, kind, jid, emit, seed):

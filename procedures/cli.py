@@ -26,17 +26,21 @@ def register(app: typer.Typer) -> None:
         data: Path = typer.Option(Path("bench-data"), "--data", help="directory of the run store"),
         seed: int = typer.Option(0, "--seed", help="seed of the virtual drives"),
         plots: bool = typer.Option(True, "--plots/--no-plots", help="write PNG plots"),
+        transport: str = typer.Option("simulated", "--transport",
+                                      help="simulated (in-process plugs) or virtual (emulated CANopen/serial drives)"),
     ) -> None:
         """Search excitation, identify and validate by tracking, joint after joint."""
         try:
-            code = _calibrate(bench, joints, json_out, resume, data, seed, plots)
+            if transport not in ("simulated", "virtual"):
+                raise BenchError(f"--transport must be simulated or virtual, got {transport!r}")
+            code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport)
         except BenchError as e:
             typer.echo(f"error: {e}", err=True)
             raise typer.Exit(2)
         raise typer.Exit(code)
 
 
-def _calibrate(bench, joints, json_out, resume, data, seed, plots) -> int:
+def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="simulated") -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -74,7 +78,7 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots) -> int:
             elif doc["name"] == "trial" and d.get("joint") in tasks:
                 progress.update(tasks[d["joint"]], status=f"search: trial {d['index']} {d['outcome']}")
 
-        report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(plots=plots))
+        report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(plots=plots, force_simulated=transport == "simulated"))
     text = json.dumps(report, indent=2, default=str)
     if json_out is not None:
         try:
