@@ -37,6 +37,7 @@ from drivers.safety import SampleGuard
 DEFAULT_EDS = str(Path(__file__).resolve().parent.parent / "virtual_drives" / "od"
                   / "cia402_torque.eds")
 CW_SHUTDOWN, CW_SWITCH_ON, CW_ENABLE, CW_QUICK_STOP, CW_FAULT_RESET = 0x06, 0x07, 0x0F, 0x02, 0x80
+CW_DISABLE_VOLTAGE = 0x00      # -> switch on disabled from any state, quick stop active included
 _TPDO1 = struct.Struct("<Hih")
 _RPDO1 = struct.Struct("<Hh")
 
@@ -126,6 +127,7 @@ class Cia402Drive:
             self._write(0x605A, None, 2)   # brake on the quick-stop ramp, then power off
         self._write(0x1017, None, int(j["heartbeat_ms"]))
         self._write(0x1016, 1, (j["host_node_id"] << 16) | int(round(j["watchdog_s"] * 1000)))
+        self.bus.beat()                   # the consumer arms on the first heartbeat it sees
         self._map_pdos(0x2001 in od)
         self.mode = None
         for mode in (10, 4):              # cyclic synchronous torque, else profile torque
@@ -286,9 +288,9 @@ class Cia402Drive:
             self._write(0x6040, None, 0x00)
             self._await_state("SWITCH ON DISABLED", CW_FAULT_RESET)
         self._write(0x6071, None, 0)
-        if state_of(self._read(0x6041)) == "OPERATION ENABLED":
-            self._await_state("SWITCHED ON", CW_SWITCH_ON)
-        if state_of(self._read(0x6041)) in ("SWITCH ON DISABLED", "QUICK STOP ACTIVE"):
+        if state_of(self._read(0x6041)) in ("OPERATION ENABLED", "QUICK STOP ACTIVE"):
+            self._await_state("SWITCH ON DISABLED", CW_DISABLE_VOLTAGE)
+        if state_of(self._read(0x6041)) == "SWITCH ON DISABLED":
             self._await_state("READY TO SWITCH ON", CW_SHUTDOWN)
         self._await_state("SWITCHED ON", CW_SWITCH_ON)
         with self.cond:
@@ -319,7 +321,7 @@ class Cia402Drive:
         self._stop_with(CW_QUICK_STOP, DriveState.QUICK_STOP)
 
     def disable(self) -> None:
-        self._stop_with(CW_SHUTDOWN, DriveState.DISABLED)
+        self._stop_with(CW_DISABLE_VOLTAGE, DriveState.DISABLED)
 
     def status(self) -> DriveStatus:
         self._alive()

@@ -68,11 +68,15 @@ class SharedBus:
         # our own producer (not python-can's periodic task) so every frame goes through
         # Network.send_lock: socketcand is a TCP stream shared with the cyclic frames
         while not self._stop.wait(self.heartbeat_s):
-            if not self.silent:
-                try:
-                    self.network.send_message(0x700 + self.host_node_id, b"\x05")
-                except Exception:
-                    pass
+            self.beat()
+
+    def beat(self) -> None:
+        """One host heartbeat (state operational), unless the host plays dead."""
+        if not self.silent:
+            try:
+                self.network.send_message(0x700 + self.host_node_id, b"\x05")
+            except Exception:
+                pass
 
     def sync_for(self, tick: int) -> int:
         """Send the SYNC of pacer tick ``tick`` unless it went out already; return the SYNC

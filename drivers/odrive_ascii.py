@@ -5,11 +5,12 @@ and two reply lines: "<pos> <vel>" (turns, turns/s) and the axis error bits.  ``
 the ODrive watchdog (``axis<n>.config.watchdog_timeout``), so the watchdog is fed on every
 cycle; a host that stops cycling leaves the axis to its watchdog, which idles the motor.
 
-Replies are matched by shape (two numbers / one integer), so a garbage line is skipped
-instead of shifting every later reply by one; with ``checksum`` on, each line carries the
-GCode checksum ``*<xor of the bytes before '*'>`` (decimal) and a corrupt reply is dropped.
-A cycle whose replies were corrupt is read again once ("f" and "r" only: re-sending "c"
-would advance a lock-step drive twice) before it fails with ``ProtocolViolation``.
+Every line received takes the next reply slot and must have that reply's shape (two
+numbers / one integer); with ``checksum`` on, each line also carries the GCode checksum
+``*<xor of the bytes before '*'>`` (decimal).  A cycle with a corrupt or garbage line
+resynchronises (drains the line until it is quiet) and reads again once ("f" and "r" only:
+re-sending "c" would advance a lock-step drive twice) before failing with
+``ProtocolViolation``.
 ``f`` has no torque field: ``Sample.torque`` is the torque commanded while enabled.
 """
 from __future__ import annotations
@@ -131,20 +132,22 @@ class OdriveAsciiDrive:
         self._send(lines)
         deadline = time.monotonic() + self.timeout
         got, bad = [], 0
-        while len(got) < len(shapes):
+        # the drive answers each query line once, in order: every line received takes the
+        # next reply slot, so a corrupt reply fails the exchange at once instead of waiting
+        while len(got) + bad < len(shapes):
             raw = self._readline(deadline)
             if raw is None:
-                if bad:
-                    raise ProtocolViolation(f"{self.name}: {bad} corrupt or unexpected "
-                                            f"repl{'y' if bad == 1 else 'ies'} to {lines}")
                 raise CommunicationTimeout(f"{self.name}: no reply from {self.j['port']} within "
                                            f"{self.timeout * 1e3:.0f} ms to {lines}")
             fields = self._fields(raw)
-            value = None if fields is None else _shape(fields, shapes[len(got)])
+            value = None if fields is None else _shape(fields, shapes[len(got) + bad])
             if value is None:
-                bad += 1            # garbage or a stray late reply: skip it, keep reading
-                continue
-            got.append(value)
+                bad += 1
+            else:
+                got.append(value)
+        if bad:
+            raise ProtocolViolation(f"{self.name}: {bad} corrupt or unexpected "
+                                    f"repl{'y' if bad == 1 else 'ies'} to {lines}")
         return got
 
     def _resync(self, quiet: float = 0.005) -> None:
@@ -235,20 +238,25 @@ class OdriveAsciiDrive:
         self.last, self.latched, self.want = None, None, DriveState.ENABLED
         self.guard.reset()
 
-    def quick_stop(self) -> None:
-        self.want = DriveState.QUICK_STOP
-        try:     # velocity 0 brakes to standstill (and feeds the watchdog); never raises
-            self._send([f"v {self.axis} 0 0"])
+    def _stop_with(self, lines: list[str], want: DriveState) -> None:
+        # the read that follows confirms the drive has processed the stop (lines are handled
+        # in order); a drive that does not answer is left to its watchdog.  Never raises.
+        self.want = want
+        saved, self.timeout = self.timeout, min(self.timeout, 0.1)
+        try:
+            self._exchange(lines + [f"r axis{self.axis}.current_state"], ["i"])
         except Exception:
             pass
+        finally:
+            self.timeout = saved
+
+    def quick_stop(self) -> None:
+        # velocity 0 brakes to standstill (and feeds the watchdog)
+        self._stop_with([f"v {self.axis} 0 0"], DriveState.QUICK_STOP)
 
     def disable(self) -> None:
-        self.want = DriveState.DISABLED
-        try:
-            self._send([f"w axis{self.axis}.requested_state {AXIS_IDLE}",
-                        f"w axis{self.axis}.config.enable_watchdog 0"])
-        except Exception:
-            pass
+        self._stop_with([f"w axis{self.axis}.requested_state {AXIS_IDLE}",
+                         f"w axis{self.axis}.config.enable_watchdog 0"], DriveState.DISABLED)
 
     def status(self) -> DriveStatus:
         a = f"axis{self.axis}"

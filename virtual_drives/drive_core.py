@@ -60,6 +60,7 @@ class DriveCore:
         self.fault_text = ""
         self.watchdog_s = 0.0         # 0: not armed
         self.last_alive = None        # host's last sign of life (monotonic)
+        self.watchdog_gap = 0.0       # silence that tripped the watchdog
         self.steps = 0
         self.overruns = 0
         self.wall_ref = None          # realtime: wall time matching the physics time
@@ -129,6 +130,7 @@ class DriveCore:
     def check_watchdog(self, now: float) -> None:
         if self.watchdog_s > 0 and self.last_alive is not None \
                 and now - self.last_alive > self.watchdog_s:
+            self.watchdog_gap = now - self.last_alive
             self.last_alive = None
             self.fault(FAULT_WATCHDOG, f"host silent for more than {self.watchdog_s:g} s")
 
@@ -204,7 +206,8 @@ class DriveCore:
                     "command": self.command, "applied_torque": self.applied if self.powered
                     else 0.0, "t": s.t, "q": s.q, "v": s.v, "steps": self.steps,
                     "overruns": self.overruns, "fault_code": self.fault_code,
-                    "fault_text": self.fault_text, "internal_limit": self.internal_limit}
+                    "fault_text": self.fault_text, "internal_limit": self.internal_limit,
+                    "watchdog_gap": self.watchdog_gap}
 
 
 class Ticker:

@@ -3,7 +3,7 @@
 The host opens ``responder.path`` (the pty's slave side, a real tty) with pyserial; this
 thread serves the master side.  Supported: ``c <axis> <torque>`` (torque command; feeds the
 watchdog; in lock-step it also advances simulated time by one control period),
-``v <axis> 0`` (brake to standstill: the quick stop), ``f <axis>`` -> "<pos> <vel>" in turns
+``v <axis> 0`` (brake to standstill: the quick stop; no clock tick of its own), ``f <axis>`` -> "<pos> <vel>" in turns
 and turns/s, ``u <axis>`` (feed the watchdog), ``r``/``w`` of the properties below, ``sc``
 (clear errors), GCode checksums ``*<xor>`` both ways (a line with a bad checksum is ignored),
 ``; comments``.  Units: turns = joint units x ``turns_per_unit``; torque in joint units.
@@ -160,17 +160,17 @@ class OdriveResponder:
             self.core.feed()
 
     # --- commands ------------------------------------------------------------------------------
-    def _tick(self, torque: float | None) -> None:
+    def _tick(self, torque: float) -> None:
         core = self.core
         core.feed()
         with core.lock:
             if core.clock == "lockstep":
-                if torque is not None and core.state == DriveState.ENABLED:
+                if core.state == DriveState.ENABLED:
                     core.set_command(torque)
                 core.step()
             else:
                 core.catch_up(time.monotonic(), command=True)
-                if torque is not None and core.state == DriveState.ENABLED:
+                if core.state == DriveState.ENABLED:
                     core.set_command(torque)
 
     def handle(self, line: str) -> str | None:
@@ -187,8 +187,8 @@ class OdriveResponder:
             elif cmd == "v":
                 if float(args[1]) != 0.0:
                     return "velocity control is not emulated (only 'v <axis> 0' stops)"
-                self.core.quick_stop()
-                self._tick(None)
+                self.core.feed()
+                self.core.quick_stop()   # braking goes on with the clock: no tick of its own
             elif cmd == "f":
                 _, q, v, _ = self.core.measure()
                 return f"{q * self.tpu:.12g} {v * self.tpu:.12g}"
