@@ -20,7 +20,7 @@ from rich.table import Table
 
 from bench.errors import BenchError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Identify and compensate LuGre friction in robot joints.")
 err = Console(stderr=True)
 out = Console()
@@ -104,7 +104,7 @@ def analyze(
     try:
         rec = read_csv(file)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
-        result = analyze_record(rec, inertia=inertia, add=effects, diagnose=not no_diagnosis,
+        result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))
         if plots is not None or report is not None:
             result.write_plots(plots or (report.parent / (report.stem + "_plots")))

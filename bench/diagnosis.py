@@ -37,6 +37,7 @@ class Model:
     values: dict
     effects: list[Effect] = field(default_factory=list)
     params: list[Param] = field(default_factory=list)
+    result: FitResult | None = None     # the fit that produced ``values``
 
     @property
     def appliers(self):
@@ -64,7 +65,7 @@ class CrossValidation:
 
     def __init__(self, data: FitData, n_folds: int = N_FOLDS):
         c = data.c
-        step = max(1, int(1.0 / (8.0 * c.cutoff * c.dt)))  # residuals are low-passed
+        step = max(1, int(1.0 / (8.0 * c.cutoff * c.dt_grid)))  # residuals are low-passed
         self.idx = np.nonzero(data.mask)[0][::step]
         phase = (c.t[self.idx] - c.t[0]) * c.frequency
         cycle = np.floor(phase).astype(int)
@@ -189,7 +190,7 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
         if best is None or res.cost < best[1].cost:
             best = (params, res)
     params, res = best
-    return Model(values=res.values, effects=model.effects + [effect], params=params), res
+    return Model(values=res.values, effects=model.effects + [effect], params=params, result=res), res
 
 
 @dataclass
@@ -229,7 +230,7 @@ class Diagnosis:
         return out
 
 
-def diagnose(data: FitData, values: dict, meta: dict, inertia: float,
+def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
              add: list[str] | None = None, max_steps: int = MAX_STEPS, auto: bool = True) -> Diagnosis:
     """``add``: effects to add first, in order, whatever their significance; then, when
     ``auto``, keep adding the top significant effect until none is left."""
@@ -237,13 +238,14 @@ def diagnose(data: FitData, values: dict, meta: dict, inertia: float,
     for e in forced:
         if sum(1 for f in forced if f.name == e.name) > 1:
             raise InputError(f"--add names {e.name} twice")
+    values = baseline.values
     model = Model(values={k: values[k] for k in LUGRE_KEYS},
-                  params=[Param(k, values[k]) for k in LUGRE_KEYS])
+                  params=[Param(k, values[k]) for k in LUGRE_KEYS], result=baseline)
     cv = CrossValidation(data)
     counts = cv.counts()
     steps: list[Step] = []
     contexts: list[Context] = []
-    baseline = None
+    baseline_rms = None
     pending: Step | None = None
     while True:
         base = predict(data, model.values, model.appliers)
@@ -253,8 +255,8 @@ def diagnose(data: FitData, values: dict, meta: dict, inertia: float,
         r = ctx.residual[cv.idx]
         sse_before = cv.sse(J, r)
         rms_now = math.sqrt(sse_before.sum() / counts.sum())
-        if baseline is None:
-            baseline = rms_now
+        if baseline_rms is None:
+            baseline_rms = rms_now
         if pending is not None:
             pending.rms_after = rms_now
             pending.evidence = get(pending.effect).evidence(
@@ -284,5 +286,5 @@ def diagnose(data: FitData, values: dict, meta: dict, inertia: float,
                        rms_before=rms_now, rms_after=None, evidence="", values=dict(model.values),
                        screens=screens)
         steps.append(pending)
-    return Diagnosis(baseline_rms=baseline, final_rms=rms_now, model=model, steps=steps,
+    return Diagnosis(baseline_rms=baseline_rms, final_rms=rms_now, model=model, steps=steps,
                      remaining=remaining, contexts=contexts)

@@ -50,6 +50,16 @@ class FitData:
         return int(self.mask.sum())
 
 
+_ONES: dict[int, np.ndarray] = {}
+
+
+def _ones(n: int) -> np.ndarray:
+    if n not in _ONES:
+        _ONES.clear()
+        _ONES[n] = np.ones(n)
+    return _ONES[n]
+
+
 # An "applier" writes a set of fitted values into the model: LuGre parameters, the terms
 # vector, an inertia correction.  Effects (bench.effects) provide their own.
 Applier = Callable[[dict, dict, np.ndarray], None]
@@ -64,13 +74,19 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     for apply in appliers:
         apply(values, extra, ev)
     c = data.c
-    add, _, _ = terms.effect_terms(c.q, c.v, c.t, ev)
-    _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
-    level = np.maximum(level, 1e-6)
+    if appliers:
+        add, _, _ = terms.effect_terms(c.q_full, c.q_full * 0.0, c.t_full, ev)
+        _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
+        level = np.ascontiguousarray(np.maximum(level, 1e-6))
+        visc = np.ascontiguousarray(visc)
+    else:  # plain LuGre: skip the term evaluation
+        add = None
+        level = visc = _ones(len(c.v_mid))
     F, _ = friction_trace(c.v_mid, c.dt, data.z0, lugre["Fc"], lugre["Fs"], lugre["alpha"],
                           lugre["delta"], lugre["sigma0"], lugre["sigma1"], lugre["sigma2"],
-                          np.ascontiguousarray(level), np.ascontiguousarray(visc))
-    out = c.lowpass(interval_to_samples(F) + add)
+                          level, visc)
+    F = interval_to_samples(F)
+    out = c.lowpass(F if add is None else F + add)
     if extra["inertia_error"]:
         out = out + extra["inertia_error"] * c.a
     return out

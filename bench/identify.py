@@ -64,8 +64,8 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
     c = condition(rec, cutoff=cutoff, name=name)
     F = c.friction(M)
     n = len(c.t)
-    edge = int(min(n // 10, math.ceil(3.0 / (c.cutoff * c.dt))))
-    start = max(edge, int(0.25 / (c.frequency * c.dt)))
+    edge = int(min(n // 10, math.ceil(3.0 / (c.cutoff * c.dt_grid))))
+    start = max(edge, int(0.25 / (c.frequency * c.dt_grid)))
     mask = np.zeros(n, dtype=bool)
     mask[start:n - edge] = True
     return FitData(c=c, friction=F, mask=mask, z0=0.0), M

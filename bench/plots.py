@@ -53,7 +53,7 @@ def presliding(data: FitData, values: dict, path: Path, meta: dict | None = None
     vmax = np.percentile(np.abs(c.v), 99.5)
     fig, ax = plt.subplots(figsize=(6, 4.5))
     shown = 0
-    half = int(max(5, 0.05 / (c.frequency * c.dt)))
+    half = int(max(5, 0.05 / (c.frequency * c.dt_grid)))
     for i in zero_crossings(F):
         if abs(c.v[i]) > 0.1 * vmax or not data.mask[i] or i < half or i + half >= len(F):
             continue
@@ -106,3 +106,106 @@ def loop_area(v: np.ndarray, F: np.ndarray) -> float:
     vv, FF = v[pos], F[pos]
     # shoelace over consecutive samples of the positive-velocity excursions
     return float(0.5 * np.sum(vv[:-1] * FF[1:] - vv[1:] * FF[:-1]))
+
+
+def residual_panels(data: FitData, residual: np.ndarray, alpha: float, path: Path,
+                    meta: dict | None = None, title: str = "") -> Path:
+    """Where the model fails: residual over time, against position (by direction), against
+    velocity (by regime), its autocorrelation, and its correlation with physical signals."""
+    from bench.residuals import REGIMES, breakdown, regimes
+    vu, tu = _units(meta or {})
+    m = data.mask
+    c = data.c
+    r = residual[m]
+    bd = breakdown(data, residual, alpha)
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    ax = axes[0, 0]
+    ax.plot(c.t[m], r, lw=0.5)
+    ax.set_title("residual over time")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(f"[{tu}]")
+    ax = axes[0, 1]
+    pos = c.v[m] > 0
+    ax.plot(c.q[m][pos], r[pos], ".", ms=1, alpha=0.4, label="v > 0")
+    ax.plot(c.q[m][~pos], r[~pos], ".", ms=1, alpha=0.4, label="v < 0")
+    ax.set_title("residual against position")
+    ax.legend(fontsize=7, markerscale=6)
+    ax = axes[0, 2]
+    reg = regimes(data, alpha)[m]
+    for i, name in enumerate(REGIMES):
+        sel = reg == i
+        ax.plot(c.v[m][sel], r[sel], ".", ms=1, alpha=0.4, label=name)
+    ax.set_title("residual against velocity, by regime")
+    ax.set_xlabel(f"v [{vu}]")
+    ax.legend(fontsize=7, markerscale=6)
+    ax = axes[1, 0]
+    ac = bd["whiteness"]["autocorrelation"]
+    ax.semilogx([a["lag_s"] for a in ac], [a["value"] for a in ac], "o-", ms=3)
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_title(f"autocorrelation (corr. time {bd['whiteness']['correlation_time_ratio']:.1f}x filtered noise)")
+    ax.set_xlabel("lag [s]")
+    ax = axes[1, 1]
+    names = [k for k, v in bd["cross_correlation"].items() if isinstance(v, float)]
+    ax.barh(names, [bd["cross_correlation"][k] for k in names])
+    ax.set_xlim(-1, 1)
+    ax.set_title("correlation with physical signals")
+    ax = axes[1, 2]
+    rms = [bd["by_regime"][n]["rms"] or 0.0 for n in REGIMES]
+    ax.bar(REGIMES, rms)
+    ax.set_title("rms residual by regime")
+    for a in axes.flat:
+        a.grid(alpha=0.3)
+        a.tick_params(labelsize=7)
+    fig.suptitle(f"Where the model fails: {title}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def step_panels(data: FitData, before: np.ndarray, after: np.ndarray, path: Path,
+                meta: dict | None = None, title: str = "") -> Path:
+    """One diagnosis step side by side: map and residual before and after the effect."""
+    vu, tu = _units(meta or {})
+    m = data.mask
+    c = data.c
+    fig, axes = plt.subplots(2, 3, figsize=(13, 6.5), sharey="col")
+    for row, (label, model) in enumerate((("before", before), ("after", after))):
+        r = (data.friction - model)[m]
+        ax = axes[row, 0]
+        ax.plot(c.v[m], data.friction[m], ".", ms=1, alpha=0.3, label="measured")
+        ax.plot(c.v[m], model[m], ".", ms=1, alpha=0.4, color="tab:red", label="model")
+        ax.set_title(f"map, {label}")
+        ax.set_xlabel(f"v [{vu}]")
+        ax.legend(fontsize=7, markerscale=6)
+        ax = axes[row, 1]
+        ax.plot(c.t[m], r, lw=0.5)
+        ax.set_title(f"residual over time, {label} (rms {np.sqrt(np.mean(r * r)):.3g} {tu})")
+        ax = axes[row, 2]
+        pos = c.v[m] > 0
+        ax.plot(c.q[m][pos], r[pos], ".", ms=1, alpha=0.4, label="v > 0")
+        ax.plot(c.q[m][~pos], r[~pos], ".", ms=1, alpha=0.4, label="v < 0")
+        ax.set_title(f"residual against position, {label}")
+        ax.legend(fontsize=7, markerscale=6)
+    for a in axes.flat:
+        a.grid(alpha=0.3)
+        a.tick_params(labelsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def error_fall(labels: list[str], rms: list[float], path: Path, meta: dict | None = None) -> Path:
+    _, tu = _units(meta or {})
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.bar(range(len(rms)), rms, color=["tab:gray"] + ["tab:green"] * (len(rms) - 1))
+    ax.set_xticks(range(len(rms)), labels, rotation=20, fontsize=8)
+    ax.set_ylabel(f"held-out rms error [{tu}]")
+    ax.set_title("Held-out error as effects are added")
+    ax.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

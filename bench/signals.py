@@ -18,26 +18,53 @@ from bench.records import Record
 
 @dataclass
 class Conditioned:
-    """A record made ready for identification: every array has one entry per sample."""
-    t: np.ndarray
-    dt: float
-    q: np.ndarray           # measured position
-    v: np.ndarray           # velocity at the samples, low-passed (maps, regimes)
+    """A record made ready for identification.
+
+    The model is simulated at the record's full rate (the ``*_full`` and ``*_mid`` arrays);
+    everything is compared on a coarser grid: each full-rate signal is decimated by ``decim``
+    (cascaded moving averages) and then low-passed (``lowpass``).  Both operations are linear and
+    applied identically to measurement and model, so they remove noise without bias, and
+    the costly filter runs at the lower rate."""
+    dt: float               # full-rate sample period
+    t_full: np.ndarray
+    q_full: np.ndarray
     v_mid: np.ndarray       # velocity held over each interval, lightly smoothed (model input)
     q_mid: np.ndarray       # position at interval midpoints
     t_mid: np.ndarray
+    decim: int              # full-rate samples per grid sample
+    t: np.ndarray           # --- the comparison grid ---
+    q: np.ndarray
+    v: np.ndarray           # velocity, low-passed (maps, regimes)
     a: np.ndarray           # acceleration, low-passed
     tau: np.ndarray         # applied torque, low-passed
-    cutoff: float           # Hz, of the low-pass applied to tau and a
+    cutoff: float           # Hz, of the low-pass
     frequency: float        # Hz, the excitation's fundamental
-    sos: np.ndarray         # the low-pass, to apply the same filter to model outputs
+    sos: np.ndarray         # the low-pass, designed for the grid rate
 
-    def lowpass(self, x: np.ndarray) -> np.ndarray:
-        return signal.sosfiltfilt(self.sos, x)
+    @property
+    def dt_grid(self) -> float:
+        return self.dt * self.decim
+
+    def lowpass(self, x_full: np.ndarray) -> np.ndarray:
+        """Full-rate signal -> the comparison grid (CIC decimation, then zero-phase low-pass)."""
+        return signal.sosfiltfilt(self.sos, box_average(x_full, self.decim))
 
     def friction(self, inertia: float) -> np.ndarray:
-        """Friction estimate of eq. 5 with inertia M."""
+        """Friction estimate of eq. 5 with inertia M, on the grid."""
         return self.tau - inertia * self.a
+
+
+def box_average(x: np.ndarray, d: int, stages: int = 3) -> np.ndarray:
+    """Decimate by ``d`` after ``stages`` cascaded length-d moving averages (a CIC filter:
+    sinc^stages response with nulls where aliases would land).  One stage is not enough:
+    the quantisation noise of a second difference grows like f^4 and would alias back."""
+    x = np.asarray(x, dtype=float)
+    if d == 1:
+        return x
+    for _ in range(stages):
+        cs = np.concatenate(([0.0], np.cumsum(x)))
+        x = (cs[d:] - cs[:-d]) / d
+    return x[::d]
 
 
 def excitation_frequency(t: np.ndarray, tau: np.ndarray) -> float:
@@ -77,7 +104,9 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     fc = choose_cutoff(fs, f_exc) if cutoff is None else float(cutoff)
     if not 0 < fc < 0.5 * fs:
         raise InputError(f"{name}: filter cutoff {fc:g} Hz must lie between 0 and the Nyquist frequency {0.5 * fs:g} Hz")
-    sos = signal.butter(4, fc, fs=fs, output="sos")
+    # grid rate: at least 10 samples per cutoff period
+    decim = max(1, int(fs / (10.0 * fc)))
+    sos = signal.butter(4, fc, fs=fs / decim, output="sos")
     if rec.qd is not None:
         v_raw = np.asarray(rec.qd, dtype=float)
         a_raw = np.gradient(v_raw, dt)
@@ -90,18 +119,18 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     # the bristle state integrates it, so quantisation noise averages out
     sos_v = signal.butter(2, min(4.0 * fc, 0.4 * fs), fs=fs, output="sos")
     v_mid = signal.sosfiltfilt(sos_v, v_int)
-    v = signal.sosfiltfilt(sos, v_raw)
-    a = signal.sosfiltfilt(sos, a_raw)
     # 'torque_hold: sample' marks torques sampled at t; by default a digital drive holds each
     # command until the next sample
     hold = str(rec.meta.get("torque_hold", "zoh")).lower()
     if hold not in ("zoh", "sample"):
         raise InputError(f"{name}: torque_hold must be 'zoh' or 'sample', not {hold!r}")
     tau_raw = held_torque(rec.tau) if hold == "zoh" and rec.qd is None else rec.tau
-    tau = signal.sosfiltfilt(sos, tau_raw)
-    return Conditioned(t=t, dt=dt, q=q, v=v, v_mid=v_mid, q_mid=0.5 * (q[1:] + q[:-1]),
-                       t_mid=0.5 * (t[1:] + t[:-1]), a=a, tau=tau, cutoff=fc, frequency=f_exc,
-                       sos=sos)
+    c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=v_mid, q_mid=0.5 * (q[1:] + q[:-1]),
+                    t_mid=0.5 * (t[1:] + t[:-1]), decim=decim, t=box_average(t, decim),
+                    q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
+                    frequency=f_exc, sos=sos)
+    c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(v_raw), c.lowpass(a_raw), c.lowpass(tau_raw)
+    return c
 
 
 def second_difference(q: np.ndarray, dt: float) -> np.ndarray:

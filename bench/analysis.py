@@ -1,0 +1,172 @@
+"""``bench analyze``: identify, compare, find where the model fails, name the missing effect,
+add it and show the error fall.  ``analyze_record`` returns an ``Analysis`` that renders the
+JSON contract, the PNG plots and a self-contained HTML report."""
+from __future__ import annotations
+
+import base64
+import html
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from bench import plots
+from bench.diagnosis import Diagnosis, diagnose
+from bench.fitting import LUGRE_KEYS
+from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
+from bench.records import Record
+from bench.residuals import breakdown
+
+
+@dataclass
+class Analysis:
+    record: Record
+    ident: Identification
+    diagnosis: Diagnosis | None
+    name: str = "record"
+    plot_files: dict = field(default_factory=dict)
+
+    # --- the JSON contract -------------------------------------------------------------------
+    def report(self) -> dict:
+        doc = self.ident.report()
+        if self.diagnosis is None:
+            return doc
+        d = self.diagnosis
+        final = d.model.result
+        lugre = {k: float(d.model.values[k]) for k in LUGRE_KEYS}
+        doc["baseline"] = {"rms_error": d.baseline_rms, "parameters": doc["parameters"],
+                           "fit": dict(doc["fit"])}
+        if d.model.effects:  # the model with effects is the better estimate of LuGre too
+            doc["parameters"] = lugre
+            doc["uncertainty"] = {k: final.stderr.get(k) for k in LUGRE_KEYS}
+            doc["identifiable"] = {k: bool(final.stderr.get(k) is not None and
+                                           final.stderr[k] <= IDENTIFIABLE_REL_SE * abs(lugre[k]))
+                                   for k in LUGRE_KEYS}
+            doc["fit"] = dict(doc["fit"], rms_error=final.rms, nrmse=final.nrmse,
+                              fit_percent=100.0 * (1.0 - final.nrmse))
+        doc["diagnosis"] = d.entries()
+        doc["final"] = {"effects": d.model.names(),
+                        "parameters": {k: float(v) for k, v in d.model.values.items()},
+                        "rms_error": d.final_rms}
+        doc["steps"] = [{"effect": s.effect, "forced": s.forced, "significant": s.significant,
+                         "rms_before": s.rms_before, "rms_after": s.rms_after, "evidence": s.evidence,
+                         "candidates": [{"effect": c.effect, "explained": c.explained, "t": c.t_stat,
+                                         "significant": c.significant} for c in s.screens]}
+                        for s in d.steps]
+        alpha = lugre["alpha"]
+        doc["residuals"] = {
+            "baseline": breakdown(self.ident.data, self.ident.result.residual, alpha),
+            "final": breakdown(self.ident.data, self.ident.data.friction - d.contexts[-1].model, alpha),
+        }
+        return doc
+
+    # --- pictures ---------------------------------------------------------------------------
+    def write_plots(self, directory: Path) -> dict:
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        data, meta = self.ident.data, self.record.meta
+        vals = self.ident.result.values
+        files = {
+            "map": plots.friction_map(data, vals, directory / "map.png", meta,
+                                      title="Friction-velocity map: LuGre fit"),
+            "presliding": plots.presliding(data, vals, directory / "presliding.png", meta),
+            "inertia": plots.inertia_effect(data, self.ident.inertia, directory / "inertia_effect.png", meta),
+        }
+        if self.diagnosis is not None:
+            d = self.diagnosis
+            files["residual_baseline"] = plots.residual_panels(
+                data, data.friction - d.contexts[0].model, vals["alpha"], directory / "residual_baseline.png",
+                meta, "LuGre only")
+            for i, (step, ctx) in enumerate(zip(d.steps, d.contexts[1:]), start=1):
+                files[f"step{i}"] = plots.step_panels(data, d.contexts[i - 1].model, ctx.model,
+                                                      directory / f"step{i}_{step.effect}.png", meta,
+                                                      f"step {i}: + {step.effect}")
+            files["error_fall"] = plots.error_fall(
+                ["LuGre"] + [f"+ {s.effect}" for s in d.steps],
+                [d.baseline_rms] + [s.rms_after for s in d.steps], directory / "error_fall.png", meta)
+        self.plot_files = {k: Path(v) for k, v in files.items()}
+        return self.plot_files
+
+    def write_html(self, path: Path) -> Path:
+        path = Path(path)
+        if not self.plot_files:
+            self.write_plots(path.parent / (path.stem + "_plots"))
+        doc = self.report()
+        path.write_text(render_html(self.name, doc, self.plot_files))
+        return path
+
+
+def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | None = None,
+                   diagnose_effects: bool = True, cutoff: float | None = None,
+                   name: str = "record") -> Analysis:
+    """Identify; then add the effects in ``add`` (forced, one step each) or, without
+    ``add`` and unless ``diagnose_effects`` is False, the significant ones the diagnosis finds."""
+    if add:  # validate names before spending time on a fit
+        from bench.effects import get
+        for n in add:
+            get(n)
+    ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
+    diag = None
+    if diagnose_effects or add:
+        diag = _diagnose(ident, rec, add)
+    return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
+
+
+def _diagnose(ident: Identification, rec: Record, add):
+    return diagnose(ident.data, ident.result, rec.meta, ident.inertia, add=add, auto=not add)
+
+
+def _img(path: Path) -> str:
+    b64 = base64.b64encode(Path(path).read_bytes()).decode()
+    return f'<img src="data:image/png;base64,{b64}" style="max-width:100%">'
+
+
+def render_html(name: str, doc: dict, files: dict) -> str:
+    e = html.escape
+    def se(k):
+        x = doc["uncertainty"].get(k)
+        return "" if x is None else f"{x:.3g}"
+
+    rows = "".join(
+        f"<tr><td>{e(k)}</td><td>{v:.6g}</td><td>{se(k)}</td>"
+        f"<td>{'yes' if doc['identifiable'].get(k) else '<b>no</b>'}</td></tr>"
+        for k, v in doc["parameters"].items())
+    diag_rows = "".join(
+        f"<tr><td>{'&#10003;' if d['significant'] else ''}</td><td>{e(d['effect'])}</td>"
+        f"<td>{d['rms_before']:.4g}</td><td>{d['rms_after']:.4g}</td><td>{e(d['evidence'])}</td></tr>"
+        for d in doc.get("diagnosis", []))
+    steps = "".join(f"<h3>{e(k)}</h3>{_img(p)}" for k, p in files.items() if k.startswith("step"))
+    parts = [
+        f"<html><head><meta charset='utf-8'><title>friction analysis: {e(name)}</title>",
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:3px 8px}</style></head><body>",
+        f"<h1>Friction analysis: {e(name)}</h1>",
+        f"<p>inertia {doc['inertia']:.6g}; fit {doc['fit'].get('fit_percent', 0):.2f} %, "
+        f"rms error {doc['fit']['rms_error']:.4g}</p>",
+        "<h2>Identified LuGre model</h2><table><tr><th>parameter</th><th>value</th><th>std. error</th>"
+        f"<th>identifiable</th></tr>{rows}</table>",
+    ]
+    if "baseline" in doc:
+        parts.append(f"<h2>Held-out error</h2><p>LuGre only: {doc['baseline']['rms_error']:.4g} &rarr; "
+                     f"with {e(', '.join(doc['final']['effects']) or 'no effect')}: {doc['final']['rms_error']:.4g}</p>")
+        if "error_fall" in files:
+            parts.append(_img(files["error_fall"]))
+        parts.append("<h2>Diagnosis</h2><table><tr><th>sig.</th><th>effect</th><th>rms before</th>"
+                     f"<th>rms after</th><th>evidence</th></tr>{diag_rows}</table>")
+        parts.append(f"<h2>Steps</h2>{steps}")
+        if "residual_baseline" in files:
+            parts.append(f"<h2>Where LuGre alone fails</h2>{_img(files['residual_baseline'])}")
+    for key, title in (("map", "Friction-velocity map"), ("presliding", "Presliding"),
+                       ("inertia", "Inertia sensitivity (Fig. 2)")):
+        if key in files:
+            parts.append(f"<h2>{title}</h2>{_img(files[key])}")
+    for w in doc.get("warnings", []):
+        parts.append(f"<p>warning: {e(w)}</p>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def held_out_improvement(doc: dict) -> float:
+    """1 - final / baseline held-out rms (for summaries)."""
+    b, f = doc["baseline"]["rms_error"], doc["final"]["rms_error"]
+    return 1.0 - f / b if b > 0 and math.isfinite(f) else 0.0
+
