@@ -13,6 +13,7 @@ import dataclasses
 import html
 import json
 from pathlib import Path
+from typing import Callable
 
 from bench.errors import BenchError, InputError
 from bench.lugre import LuGreParams
@@ -35,6 +36,9 @@ class CalibrationSettings:
     tracking: TrackingSettings = dataclasses.field(default_factory=TrackingSettings)
     force_simulated: bool = True   # until the emulated CANopen/serial drives are wired in
     plots: bool = True
+    # called with the freshly opened drives {joint id: drive}, returns the drives the rig uses:
+    # the REST service wraps them so its e-stop reaches every open drive (api.safety)
+    wrap_drives: Callable[[dict], dict] | None = None
 
 
 def start_calibration(store: Store, bench: str | Path, joints: list[str] | None = None, seed: int = 0) -> str:
@@ -132,6 +136,8 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
     try:
         drives = open_drives(joints, force_simulated=st.force_simulated, seed=seed,
                              control_period=cfg.control_period)
+        if st.wrap_drives is not None:
+            drives = st.wrap_drives(drives)
         rig = Rig(cfg, drives, cancel)
         rig.virtual_bench = vb
         rig.parked = False
