@@ -1,0 +1,58 @@
+"""What every route needs: the service state and the caller's key (``Authorization: Bearer``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from fastapi import Depends, HTTPException, Request
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+
+from api.auth import KeyStore, Principal
+from api.runs import RunManager
+from api.safety import EStop
+from bench.store import Store
+from procedures.config import BenchConfig
+
+
+@dataclass
+class Service:
+    cfg: BenchConfig
+    bench_spec: str
+    transport: str
+    data_dir: Path
+    store: Store
+    keys: KeyStore
+    estop: EStop
+    runs: RunManager
+    analysis_pool: object = None     # lazily created process pool for POST /analyze
+
+
+def service(request: Request) -> Service:
+    return request.app.state.service
+
+
+_bearer = HTTPBearer(auto_error=False, description="API key: observer, operator or admin")
+
+
+def principal(creds: HTTPAuthorizationCredentials | None = Depends(_bearer),
+              svc: Service = Depends(service)) -> Principal:
+    if creds is None or not creds.credentials:
+        raise HTTPException(401, "missing API key: send 'Authorization: Bearer <key>'",
+                            headers={"WWW-Authenticate": "Bearer"})
+    p = svc.keys.authenticate(creds.credentials)
+    if p is None:
+        raise HTTPException(401, "invalid API key", headers={"WWW-Authenticate": "Bearer"})
+    return p
+
+
+def require(role: str):
+    def check(p: Principal = Depends(principal)) -> Principal:
+        if not p.allows(role):
+            raise HTTPException(403, f"this needs the {role} role; your key {p.name!r} is {p.role}")
+        return p
+    return check
+
+
+observer = require("observer")
+operator = require("operator")
+admin = require("admin")

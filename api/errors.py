@@ -1,0 +1,66 @@
+"""Every error is a one-line JSON ``{"detail": ...}`` with a 4xx status; never a traceback.
+
+Mapping: body/parameter validation -> 422 naming the field; ``NotFound`` -> 404;
+``Conflict`` -> 409; ``InputError`` (bad record, bad option, unknown model) -> 422; any other
+``BenchError`` -> 400.  Anything else is a bug: it is logged with its traceback and answered
+500 with a clean JSON body (the fuzz test exists to find those, and they get fixed).
+"""
+from __future__ import annotations
+
+import logging
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+
+from api.models import ErrorBody
+from api.runs import Conflict, NotFound
+from bench.errors import BenchError, InputError
+
+log = logging.getLogger("api")
+
+
+def _doc(description: str) -> dict:
+    return {"model": ErrorBody, "description": description}
+
+
+UNAUTHORIZED = {401: _doc("no or unknown API key")}
+FORBIDDEN = {403: _doc("the key's role does not allow this")}
+NOT_FOUND = {404: _doc("unknown run or joint")}
+CONFLICT = {409: _doc("a joint is busy or the e-stop is active")}
+INVALID = {422: _doc("invalid request: the message names the field")}
+AUTH = {**UNAUTHORIZED, **FORBIDDEN, **INVALID}
+
+
+def _field(loc) -> str:
+    parts = [str(p) for p in loc]
+    return ".".join(parts) if parts else "request"
+
+
+def install(app: FastAPI) -> None:
+    @app.exception_handler(RequestValidationError)
+    async def validation(request: Request, exc: RequestValidationError):
+        errors = []
+        for e in exc.errors():
+            msg = str(e.get("msg", "invalid"))
+            errors.append({"field": _field(e.get("loc", ())), "message": msg})
+        first = errors[0] if errors else {"field": "request", "message": "invalid"}
+        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+        return JSONResponse({"detail": f"{first['field']}: {first['message']}{more}", "errors": errors},
+                            status_code=422)
+
+    @app.exception_handler(BenchError)
+    async def bench_error(request: Request, exc: BenchError):
+        status = 404 if isinstance(exc, NotFound) else 409 if isinstance(exc, Conflict) \
+            else 422 if isinstance(exc, InputError) else 400
+        return JSONResponse({"detail": _one_line(exc)}, status_code=status)
+
+    @app.exception_handler(Exception)
+    async def unexpected(request: Request, exc: Exception):
+        log.error("unexpected error on %s %s", request.method, request.url.path, exc_info=exc)
+        return JSONResponse({"detail": f"internal error ({exc.__class__.__name__}); it was logged"},
+                            status_code=500)
+
+
+def _one_line(exc: Exception) -> str:
+    return " ".join(str(exc).split()) or exc.__class__.__name__

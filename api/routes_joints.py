@@ -1,0 +1,86 @@
+"""/joints: configuration, state, model and the compensation switch."""
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends
+
+from api import errors as E
+from api.deps import Service, observer, operator, service
+from api.models import (CompensationState, CompensationUpdate, DriveInfo, JointDetail, JointList,
+                        JointSummary, Limits, ModelInfo)
+from api.runs import NotFound
+from bench.compensation import get_compensation, set_compensation
+from bench.errors import InputError
+
+router = APIRouter(tags=["joints"], responses={**E.AUTH})
+
+
+def _joint(svc: Service, joint_id: str) -> dict:
+    if joint_id not in svc.cfg.ids:
+        raise NotFound(f"bench {svc.cfg.name!r} has no joint {joint_id[:64]!r}; joints: {', '.join(svc.cfg.ids)}")
+    return svc.cfg.joint(joint_id)
+
+
+def _summary(svc: Service, j: dict) -> dict:
+    run_id = svc.runs.busy.get(j["id"])
+    state = "estopped" if svc.estop.active else "busy" if run_id else "idle"
+    return {"id": j["id"], "transport": j["transport"], "joint_type": j.get("joint_type", "revolute"),
+            "state": state, "run_id": run_id}
+
+
+def _model(svc: Service, joint_id: str, comp: dict) -> ModelInfo | None:
+    m = None
+    if comp.get("model_id"):
+        try:
+            m = svc.store.get_model(comp["model_id"])
+        except InputError:
+            m = None
+    if m is None:
+        models = svc.store.list_models(joint_id)
+        m = models[0] if models else None
+    if m is None:
+        return None
+    return ModelInfo(id=m["id"], run_id=m.get("run_id"), created=m["created"],
+                     parameters={k: float(v) for k, v in m["params"].items()})
+
+
+def _drive(svc: Service, joint_id: str) -> DriveInfo:
+    run_id = svc.runs.busy.get(joint_id)
+    h = svc.runs.handles.get(run_id) if run_id else None
+    d = h.drives.get(joint_id) if h is not None else None
+    if d is not None and d.last is not None and not d.closed:
+        s = d.last
+        return DriveInfo(state=s.state.value, t=s.t, position=s.position, velocity=s.velocity,
+                         torque=s.torque, open=True)
+    last = svc.runs.last_drive.get(joint_id)
+    return DriveInfo(**last, open=False) if last else DriveInfo(open=False)
+
+
+@router.get("/joints", response_model=JointList, summary="The bench's joints and whether they are busy")
+def list_joints(svc: Service = Depends(service), _=Depends(observer)):
+    return JointList(bench=svc.cfg.name, joints=[JointSummary(**_summary(svc, j)) for j in svc.cfg.joints])
+
+
+@router.get("/joints/{joint_id}", response_model=JointDetail, responses={**E.NOT_FOUND},
+            summary="A joint: state, limits, current model, compensation, last drive sample")
+def read_joint(joint_id: str, svc: Service = Depends(service), _=Depends(observer)):
+    j = _joint(svc, joint_id)
+    comp = get_compensation(svc.store, joint_id)
+    return JointDetail(**_summary(svc, j),
+                       limits=Limits(position=list(j["position_limits"]), velocity=j["velocity_limit"],
+                                     torque=j["torque_limit"]),
+                       gravity=list(j["gravity"]), inertia=j["inertia"],
+                       compensation=CompensationState(**comp), model=_model(svc, joint_id, comp),
+                       drive=_drive(svc, joint_id))
+
+
+@router.put("/joints/{joint_id}/compensation", response_model=CompensationState, responses={**E.NOT_FOUND},
+            summary="Switch friction compensation on/off, optionally choosing the model")
+def put_compensation(joint_id: str, body: CompensationUpdate, svc: Service = Depends(service),
+                     _=Depends(operator)):
+    _joint(svc, joint_id)
+    if body.model is not None:
+        try:
+            svc.store.get_model(body.model)
+        except InputError:
+            raise NotFound(f"no model {body.model!r}") from None
+    return CompensationState(**set_compensation(svc.store, joint_id, body.enabled, body.model))

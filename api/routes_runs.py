@@ -1,0 +1,172 @@
+"""/runs: start, list, watch (SSE), cancel, trace and report."""
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+from typing import Optional
+
+import anyio
+from fastapi import APIRouter, Depends, Header, Query, Request, Response
+from fastapi.responses import HTMLResponse, StreamingResponse
+
+from api import errors as E
+from api.deps import Service, observer, operator, service
+from api.models import RunCreated, RunInfo, RunList, RunRequest, RunState
+from api.procedures import KINDS, PROCEDURE_OF_KIND
+from api.reports import run_report, trace_csv
+from api.runs import NotFound
+from bench.errors import InputError
+from bench.store import FINAL
+
+router = APIRouter(tags=["runs"], responses={**E.AUTH})
+SSE_POLL = 0.2          # s between store reads of an SSE stream
+
+
+def get_run(svc: Service, run_id: str) -> dict:
+    if len(run_id) > 128:
+        raise NotFound(f"no run {run_id[:40]!r}...")
+    try:
+        return svc.store.get_run(run_id)
+    except InputError:
+        raise NotFound(f"no run {run_id!r}") from None
+
+
+def procedure_of(run: dict) -> str:
+    return PROCEDURE_OF_KIND.get(run["kind"], run["kind"]) if run.get("parent_id") is None else run["kind"]
+
+
+def run_info(svc: Service, run: dict) -> RunInfo:
+    cfg = run.get("config") or {}
+    joints = cfg.get("joints") or ([run["joint_id"]] if run.get("joint_id") else [])
+    result = None
+    if run["state"] in FINAL:
+        result = dict(run.get("result") or {})
+        result.pop("plan", None)            # the calibration's working state; "joints" summarises it
+        rep = result.pop("report", None)
+        if isinstance(rep, dict) and rep.get("files"):
+            result["files"] = rep["files"]
+    return RunInfo(id=run["id"], procedure=procedure_of(run), kind=run["kind"], state=run["state"],
+                   progress=float(min(1.0, max(0.0, svc.runs.progress(run)))), joints=list(joints),
+                   parent_id=run.get("parent_id"), created=run["created"], started=run.get("started"),
+                   ended=run.get("ended"), error=run.get("error"), options=cfg.get("options") or {},
+                   result=result)
+
+
+@router.post("/runs", status_code=202, response_model=RunCreated, responses={**E.NOT_FOUND, **E.CONFLICT},
+             summary="Start an identification, tracking or calibration run")
+def create_run(body: RunRequest, response: Response, svc: Service = Depends(service), _=Depends(operator)):
+    h = svc.runs.start(body.procedure, body.joints, body.options.model_dump())
+    location = f"/runs/{h.run_id}"
+    response.headers["Location"] = location
+    return RunCreated(id=h.run_id, procedure=body.procedure, state="queued", joints=h.joints, location=location)
+
+
+@router.get("/runs", response_model=RunList, summary="Runs, newest first")
+def list_runs(procedure: Optional[str] = Query(None, pattern="^(identify|tracking|calibrate)$"),
+              state: Optional[RunState] = None, joint: Optional[str] = Query(None, max_length=64),
+              limit: int = Query(50, ge=1, le=500), svc: Service = Depends(service), _=Depends(observer)):
+    kind = KINDS[procedure] if procedure else None
+    rows = [r for r in svc.store.list_runs(kind=kind, state=state, limit=2000) if r.get("parent_id") is None]
+    if joint is not None:
+        rows = [r for r in rows if joint in ((r.get("config") or {}).get("joints") or [])]
+    return RunList(runs=[run_info(svc, r) for r in rows[:limit]])
+
+
+@router.get("/runs/{run_id}", response_model=RunInfo, responses={**E.NOT_FOUND}, summary="One run")
+def read_run(run_id: str, svc: Service = Depends(service), _=Depends(observer)):
+    return run_info(svc, get_run(svc, run_id))
+
+
+@router.post("/runs/{run_id}/cancel", status_code=202, response_model=RunInfo, responses={**E.NOT_FOUND},
+             summary="Controlled ramp-down; the run ends 'cancelled' (a finished run is left as it is)")
+def cancel_run(run_id: str, svc: Service = Depends(service), _=Depends(operator)):
+    run = get_run(svc, run_id)
+    svc.runs.cancel(run_id)
+    return run_info(svc, run)
+
+
+@router.get("/runs/{run_id}/trace.csv", response_class=Response, responses={
+    **E.NOT_FOUND, 409: E._doc("the trace is being compacted; retry"),
+    200: {"content": {"text/csv": {"schema": {"type": "string"}}}, "description": "record CSV"}},
+    summary="One joint's trace as a record CSV (partial while running or after a cancel)")
+def read_trace_csv(run_id: str, joint: Optional[str] = Query(None, max_length=64),
+                   every: int = Query(1, ge=1, le=1000, description="keep every n-th sample"),
+                   svc: Service = Depends(service), _=Depends(observer)):
+    run = get_run(svc, run_id)
+    joints = (run.get("config") or {}).get("joints") or ([run["joint_id"]] if run.get("joint_id") else [])
+    jid = joint or (joints[0] if joints else None)
+    if jid is None:
+        raise NotFound(f"run {run_id} has no joints")
+    text = trace_csv(svc.store, svc.cfg, run, jid, every)
+    return Response(text, media_type="text/csv",
+                    headers={"Content-Disposition": f'attachment; filename="{run_id}-{jid}.csv"'})
+
+
+@router.get("/runs/{run_id}/report", response_class=HTMLResponse, responses={
+    **E.NOT_FOUND, 409: E._doc("the run has not ended yet"),
+    200: {"content": {"text/html": {"schema": {"type": "string"}}}, "description": "HTML report"}},
+    summary="HTML report with the plots")
+def read_report(run_id: str, joint: Optional[str] = Query(None, max_length=64),
+                svc: Service = Depends(service), _=Depends(observer)):
+    run = get_run(svc, run_id)
+    return HTMLResponse(run_report(svc.store, run, procedure_of(run), joint))
+
+
+def _sse(event: str, data: dict, event_id: int | None = None) -> str:
+    head = f"id: {event_id}\n" if event_id is not None else ""
+    return f"{head}event: {event}\ndata: {json.dumps(data, default=str)}\n\n"
+
+
+@router.get("/runs/{run_id}/events", response_class=StreamingResponse, responses={
+    **E.NOT_FOUND, 200: {"content": {"text/event-stream": {"schema": {"type": "string"}}},
+                         "description": "server-sent events until the run ends"}},
+    summary="Live: the run's documents (stages, trials, models, tracking), progress, decimated samples")
+async def run_events(request: Request, run_id: str,
+                     after: int = Query(-1, ge=-1, le=2**31, description="resume after this event id"),
+                     sample_hz: float = Query(10.0, ge=0.0, le=50.0, description="live sample rate (0: none)"),
+                     last_event_id: Optional[str] = Header(None, max_length=20),
+                     svc: Service = Depends(service), _=Depends(observer)):
+    await anyio.to_thread.run_sync(get_run, svc, run_id)
+    if last_event_id is not None and last_event_id.strip().lstrip("-").isdigit():
+        after = max(after, int(last_event_id))
+    return StreamingResponse(_stream(request, svc, run_id, after, sample_hz), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+async def _stream(request: Request, svc: Service, run_id: str, after: int, sample_hz: float):
+    """Documents from the store (the control loop only writes them), the progress when it
+    changes, and at most ``sample_hz`` live samples per second read from the drives' wrappers."""
+    last, progress, next_sample, state = after, None, 0.0, None
+    period = min(SSE_POLL, 1.0 / sample_hz) if sample_hz > 0 else SSE_POLL
+    ending = False
+    while not getattr(request.app.state, "closing", False):
+        docs = await anyio.to_thread.run_sync(svc.store.events, run_id, last)
+        for d in docs:
+            last = d["seq"]
+            name = d["doc"] if d["doc"] in ("start", "stop") else (d["name"] or d["doc"])
+            yield _sse(name, d, d["seq"])
+        if ending:
+            yield _sse("end", {"run_id": run_id, "state": state})
+            return
+        h = svc.runs.handles.get(run_id)
+        if h is not None:
+            if h.progress != progress:
+                progress = h.progress
+                yield _sse("progress", {"run_id": run_id, "progress": progress})
+            now = time.monotonic()
+            if sample_hz > 0 and now >= next_sample:
+                next_sample = now + 1.0 / sample_hz
+                samples = h.samples()
+                if samples:
+                    yield _sse("sample", {"run_id": run_id, "samples": samples})
+        else:
+            run = await anyio.to_thread.run_sync(svc.store.get_run, run_id)
+            state = run["state"]
+            # not (or no longer) ours: over, or queued by someone who never started it
+            if state in FINAL or state == "queued":
+                ending = True      # one more read drains the documents written at the end
+                continue
+        if await request.is_disconnected():
+            return
+        await asyncio.sleep(period)

@@ -1,0 +1,187 @@
+"""E-stop: torque off on every open drive, from the request thread, never through a queue.
+
+Every drive a run opens is wrapped in a ``GuardedDrive`` and registered with the ``EStop``
+while it is open.  The wrapper serialises the control loop's ``cycle`` with a stop coming
+from another thread (the serial and CANopen drivers are written for one caller at a time),
+remembers the newest sample (live samples for SSE and ``GET /joints``, read without touching
+the drive), and refuses to cycle while the e-stop is latched, so a run can never put torque
+back on after an e-stop; its rig sees a ``DriveError`` and stops.
+
+``EStop.trigger`` latches first, then quick-stops every registered drive in parallel (one
+short-lived thread per drive: "at once", and one slow bus cannot delay the others).  A
+stop does not wait for a cycle that is stuck: after ``LOCK_WAIT`` it stops without the lock,
+because safety beats protocol hygiene.  ``reset`` clears the latch (admin only).
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+
+from drivers.protocols import DriveFault, DriveState, Sample
+
+log = logging.getLogger(__name__)
+LOCK_WAIT = 0.05        # s: longest an e-stop waits for a control cycle in flight
+STOP_JOIN = 2.0         # s: longest the e-stop handler waits for the stop threads
+
+TORQUE_OFF_STATES = (DriveState.DISABLED, DriveState.QUICK_STOP, DriveState.FAULT)
+
+
+class EStopActive(DriveFault):
+    """Raised by a guarded drive's cycle while the e-stop is latched."""
+
+
+class GuardedDrive:
+    """A ``TorqueDrive`` seen through the e-stop (same protocol, plus ``last``)."""
+
+    def __init__(self, drive, estop: "EStop", run_id: str):
+        self.drive = drive
+        self.name = drive.name
+        self.run_id = run_id
+        self.estop = estop
+        self.lock = threading.Lock()
+        self.last: Sample | None = None
+        self.final_state: str | None = None
+        self.closed = False
+
+    def cycle(self, torque: float) -> Sample:
+        if self.estop.active:
+            raise EStopActive(f"{self.name}: emergency stop active")
+        with self.lock:
+            if self.estop.active:     # latched while we waited for the lock
+                raise EStopActive(f"{self.name}: emergency stop active")
+            s = self.drive.cycle(torque)
+        self.last = s
+        return s
+
+    def enable(self) -> None:
+        if self.estop.active:
+            raise EStopActive(f"{self.name}: emergency stop active; reset it first")
+        with self.lock:
+            self.drive.enable()
+
+    def quick_stop(self) -> None:
+        got = self.lock.acquire(timeout=LOCK_WAIT)
+        try:
+            self.drive.quick_stop()
+        except Exception:   # the protocol says never raises; a stop must not throw anyway
+            log.exception("%s: quick_stop raised", self.name)
+        finally:
+            if got:
+                self.lock.release()
+
+    def disable(self) -> None:
+        with self.lock:
+            self.drive.disable()
+
+    def status(self):
+        with self.lock:
+            return self.drive.status()
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        try:
+            with self.lock:
+                try:    # the state the drive was left in, for GET /joints after the run
+                    self.final_state = _state_name(self.drive.status().state)
+                except Exception:
+                    self.final_state = None
+                self.drive.close()
+        finally:
+            self.closed = True
+            self.estop.unregister(self)
+
+    def __getattr__(self, name):  # test hooks and extras of the concrete driver
+        if name == "drive":
+            raise AttributeError(name)
+        return getattr(self.drive, name)
+
+
+def _state_name(state) -> str:
+    return state.value if isinstance(state, DriveState) else str(state)
+
+
+class EStop:
+    def __init__(self):
+        self.active = False
+        self.reason = ""
+        self.triggered_at: float | None = None
+        self.last_result: list[dict] = []
+        self._drives: list[GuardedDrive] = []
+        self._lock = threading.Lock()
+        self._listeners: list = []     # called with the reason after a trigger (runs cancel)
+
+    # --- drives ------------------------------------------------------------------------------
+    def wrap(self, drives: dict, run_id: str) -> dict:
+        """Guard and register freshly opened drives; refuse (closing them) while latched."""
+        if self.active:
+            for d in drives.values():
+                try:
+                    d.close()
+                except Exception:
+                    pass
+            raise EStopActive("emergency stop active; reset it before starting motion")
+        guarded = {jid: GuardedDrive(d, self, run_id) for jid, d in drives.items()}
+        with self._lock:
+            self._drives.extend(guarded.values())
+        return guarded
+
+    def unregister(self, drive: GuardedDrive) -> None:
+        with self._lock:
+            if drive in self._drives:
+                self._drives.remove(drive)
+
+    def open_drives(self) -> list[GuardedDrive]:
+        with self._lock:
+            return list(self._drives)
+
+    def on_trigger(self, callback) -> None:
+        self._listeners.append(callback)
+
+    # --- the stop -----------------------------------------------------------------------------
+    def trigger(self, reason: str) -> dict:
+        """Latch, quick-stop every open drive in parallel, then read back each drive's state."""
+        t0 = time.perf_counter()
+        self.active = True            # first: no cycle may command torque from now on
+        self.reason = reason
+        self.triggered_at = time.time()
+        drives = self.open_drives()
+        threads = [threading.Thread(target=d.quick_stop, name=f"estop-{d.name}", daemon=True)
+                   for d in drives]
+        for t in threads:
+            t.start()
+        deadline = time.monotonic() + STOP_JOIN
+        for t in threads:
+            t.join(max(0.0, deadline - time.monotonic()))
+        stop_latency = time.perf_counter() - t0
+        result = [self._report(d) for d in drives]
+        for cb in list(self._listeners):
+            try:
+                cb(reason)
+            except Exception:
+                log.exception("e-stop listener failed")
+        self.last_result = result
+        return {"active": True, "reason": reason, "stop_latency_ms": 1e3 * stop_latency,
+                "drives": result}
+
+    @staticmethod
+    def _report(d: GuardedDrive) -> dict:
+        # the drive's own answer (CANopen statusword / ODrive axis state) after the stop
+        try:
+            got = d.lock.acquire(timeout=LOCK_WAIT)
+            try:
+                state = _state_name(d.drive.status().state)
+            finally:
+                if got:
+                    d.lock.release()
+        except Exception as e:  # a drive that cannot answer is reported, never hidden
+            return {"joint": d.name, "run_id": d.run_id, "state": None, "torque_off": None,
+                    "error": f"{e.__class__.__name__}: {e}"}
+        return {"joint": d.name, "run_id": d.run_id, "state": state,
+                "torque_off": state in {s.value for s in TORQUE_OFF_STATES}, "error": None}
+
+    def reset(self) -> None:
+        self.active = False
+        self.reason = ""
+        self.triggered_at = None
