@@ -83,13 +83,15 @@ class GuardedDrive:
             return
         try:
             with self.lock:
-                try:    # the state the drive was left in, for GET /joints after the run
+                try:    # the state the drive was left in, for GET /joints and the e-stop report
                     self.final_state = _state_name(self.drive.status().state)
                 except Exception:
                     self.final_state = None
-                self.drive.close()
+                try:
+                    self.drive.close()
+                finally:
+                    self.closed = True
         finally:
-            self.closed = True
             self.estop.unregister(self)
 
     def __getattr__(self, name):  # test hooks and extras of the concrete driver
@@ -170,8 +172,8 @@ class EStop:
         # the drive's own answer (CANopen statusword / ODrive axis state) after the stop
         try:
             got = d.lock.acquire(timeout=LOCK_WAIT)
-            try:
-                state = _state_name(d.drive.status().state)
+            try:    # the run may have closed it meanwhile: then the state it was closed in
+                state = d.final_state if d.closed else _state_name(d.drive.status().state)
             finally:
                 if got:
                     d.lock.release()
