@@ -41,7 +41,12 @@ def rig(process):
             pass
 
 
-def wait_for(predicate, timeout=5.0, what="condition"):
+@pytest.fixture
+def wait_for():
+    return _wait_for
+
+
+def _wait_for(predicate, timeout=5.0, what="condition"):
     """Poll (not a timing assertion: the deadline only keeps a broken test from hanging)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

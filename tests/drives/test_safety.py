@@ -10,7 +10,6 @@ from bench.errors import InputError
 from drivers.protocols import (CommunicationTimeout, DriveError, DriveFault, DriveState,
                                LimitViolation, ProtocolViolation, WatchdogExpired)
 from drivers.registry import open_drive
-from tests.drives.conftest import wait_for
 
 TRANSPORTS = ["canopen", "serial"]
 
@@ -52,7 +51,7 @@ def test_software_limit_breach_quick_stops_in_the_same_cycle(rig, transport):
 
 
 @pytest.mark.parametrize("transport", TRANSPORTS)
-def test_velocity_limit_and_torque_limit_stop_the_drive(rig, transport):
+def test_velocity_limit_and_torque_limit_stop_the_drive(rig, transport, wait_for):
     vb, (drive,) = rig([rotary(transport, velocity_limit=0.5)])
     drive.enable()
     exc, _ = run_until_error(drive, 0.4)
@@ -67,7 +66,7 @@ def test_velocity_limit_and_torque_limit_stop_the_drive(rig, transport):
 
 
 @pytest.mark.parametrize("transport", TRANSPORTS)
-def test_silent_host_turns_the_drive_torque_off(rig, transport):
+def test_silent_host_turns_the_drive_torque_off(rig, transport, wait_for):
     vb, (drive,) = rig([rotary(transport)])
     drive.enable()
     for _ in range(20):
@@ -101,7 +100,7 @@ FAULTS = [
 @pytest.mark.parametrize("transport,fault,args,expected", FAULTS,
                          ids=[f"{t}-{f}" for t, f, _, _ in FAULTS])
 def test_injected_fault_raises_typed_error_and_stops_safely(rig, transport, fault, args,
-                                                            expected):
+                                                            expected, wait_for):
     vb, (drive,) = rig([rotary(transport)])
     drive.enable()
     for _ in range(20):
