@@ -1,0 +1,124 @@
+"""Keys and roles (401/403), bad input (422 naming the field, 404), and POST /analyze."""
+from __future__ import annotations
+
+import os
+import stat
+
+import pytest
+
+from virtual_drives.joint import simulate_record
+from virtual_drives.presets import preset
+
+READS = ["/joints", "/joints/j1", "/runs", "/estop", "/runs/nope"]
+
+
+@pytest.mark.parametrize("path", READS)
+def test_no_key_is_401(live, path):
+    with live.client() as c:
+        r = c.get(path)
+    assert r.status_code == 401 and "API key" in r.json()["detail"]
+    assert r.headers["www-authenticate"] == "Bearer"
+
+
+def test_wrong_key_is_401_and_health_is_open(live):
+    with live.client("not-a-key") as c:
+        assert c.get("/joints").status_code == 401
+        assert c.post("/estop").status_code == 401          # not even an e-stop from a stranger
+        assert c.get("/health").status_code == 200
+
+
+def test_roles(live, observer, operator, admin):
+    assert observer.get("/joints/j1").status_code == 200
+    for method, path, body in [("post", "/runs", {"procedure": "identify", "joints": ["j1"]}),
+                               ("put", "/joints/j1/compensation", {"enabled": False}),
+                               ("post", "/runs/x/cancel", None), ("post", "/keys", {"role": "observer"})]:
+        r = getattr(observer, method)(path, **({"json": body} if body is not None else {}))
+        assert r.status_code == 403, r.text
+        assert "operator" in r.json()["detail"] or "admin" in r.json()["detail"]
+    assert operator.post("/keys", json={"role": "admin"}).status_code == 403
+    assert operator.get("/keys").status_code == 403
+    assert operator.post("/estop/reset").status_code == 403
+    assert operator.put("/joints/j4/compensation", json={"enabled": False}).status_code == 200
+    keys = admin.get("/keys").json()["keys"]
+    assert {"admin", "operator", "observer"} <= {k["role"] for k in keys}
+    assert all("sha256" not in k and "key" not in k for k in keys)
+
+
+def test_keys_are_stored_hashed_in_private_files(live):
+    data = live.svc.data_dir
+    for name in ("api_keys.json", "admin.key"):
+        assert stat.S_IMODE(os.stat(data / name).st_mode) == 0o600
+    stored = (data / "api_keys.json").read_text()
+    assert live.operator not in stored and live.admin not in stored
+
+
+def test_revoked_key_is_refused(live, admin):
+    made = admin.post("/keys", json={"role": "observer", "name": "temp"}).json()
+    with live.client(made["key"]) as c:
+        assert c.get("/joints").status_code == 200
+        assert admin.delete(f"/keys/{made['id']}").status_code == 204
+        assert c.get("/joints").status_code == 401
+
+
+@pytest.mark.parametrize("body, field", [
+    ({"procedure": "dance", "joints": ["j1"]}, "body.procedure"),
+    ({"joints": ["j1"]}, "body.procedure"),
+    ({"procedure": "identify", "joints": "j1"}, "body.joints"),
+    ({"procedure": "identify", "joints": ["j1"], "options": {"search_max_trials": 0}}, "body.options.search_max_trials"),
+    ({"procedure": "identify", "joints": ["j1"], "options": {"warp": 9}}, "body.options.warp"),
+    ({"procedure": "identify", "joints": []}, "joints"),
+    ({"procedure": "identify", "joints": ["j1", "j1"]}, "joints"),
+])
+def test_bad_run_bodies_are_422_naming_the_field(operator, body, field):
+    r = operator.post("/runs", json=body)
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"].startswith(field) and "\n" not in r.json()["detail"]
+
+
+def test_not_json_is_422(operator):
+    r = operator.post("/runs", content=b"{nope", headers={"content-type": "application/json"})
+    assert r.status_code == 422 and r.json()["detail"].startswith("body")
+
+
+def test_unknown_joint_run_or_model_is_404(operator):
+    assert operator.get("/joints/j9").status_code == 404
+    r = operator.post("/runs", json={"procedure": "identify", "joints": ["j9"]})
+    assert r.status_code == 404 and "j9" in r.json()["detail"]
+    for path in ("/runs/nope", "/runs/nope/trace.csv", "/runs/nope/report", "/runs/nope/events"):
+        assert operator.get(path).status_code == 404, path
+    assert operator.post("/runs/nope/cancel").status_code == 404
+    assert operator.put("/joints/j1/compensation", json={"enabled": True, "model": "m-x"}).status_code == 404
+
+
+def test_tracking_without_model_is_refused_before_starting(operator):
+    r = operator.post("/runs", json={"procedure": "tracking", "joints": ["j4"], "options": {"compensation": "on"}})
+    assert r.status_code == 422 and "no identified model" in r.json()["detail"]
+
+
+def _record_csv() -> str:
+    spec = preset("rotary")
+    a, f = spec.excitation
+    return simulate_record(spec, a, f, 6.0, dt=1e-3, seed=4).record.to_csv()
+
+
+def test_analyze_csv_body_and_multipart(operator):
+    text = _record_csv()
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=180)
+    assert r.status_code == 200, r.text
+    assert set(r.json()["parameters"]) >= {"Fc", "Fs", "sigma0"}
+    r = operator.post("/analyze", files={"file": ("rec.csv", text, "text/csv")}, params={"diagnose": "false"},
+                      timeout=180)
+    assert r.status_code == 200, r.text
+
+
+@pytest.mark.parametrize("content, ctype, status", [
+    (b"t,tau\n0,1\n", "text/csv", 422),
+    (b"\xff\xfe\x00garbage", "text/csv", 422),
+    (b"", "text/csv", 422),
+    (b"<xml/>", "application/xml", 415),
+])
+def test_analyze_bad_records(operator, content, ctype, status):
+    r = operator.post("/analyze", content=content, headers={"content-type": ctype}, timeout=60)
+    assert r.status_code == status, r.text
+    assert "\n" not in r.json()["detail"]
