@@ -49,7 +49,8 @@ class Analysis:
                         "rms_error": d.final_rms}
         doc["steps"] = [{"effect": s.effect, "forced": s.forced, "significant": s.significant,
                          "rms_before": s.rms_before, "rms_after": s.rms_after, "evidence": s.evidence,
-                         "candidates": [{"effect": c.effect, "explained": c.explained, "t": c.t_stat,
+                         "candidates": [{"effect": c.effect, "explained": c.explained,
+                                         "explained_across_directions": c.explained_across, "t": c.t_stat,
                                          "significant": c.significant} for c in s.screens]}
                         for s in d.steps]
         alpha = lugre["alpha"]

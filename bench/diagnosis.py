@@ -9,9 +9,15 @@ regressed on the model's sensitivities to its own parameters (so LuGre can re-ad
 the candidate effect's sensitivities (finite differences of the same simulation, with any
 nonlinear hyper-parameter such as a pitch found beforehand from the residual's signature).
 An effect is significant when it explains at least ``MIN_EXPLAINED`` of the held-out residual
-variance and its gain is consistent across held-out half-cycles (paired t >= ``T_CRIT``);
-candidates are ranked by held-out error with a BIC-style penalty per parameter, so that of two
-effects explaining the same, the simpler wins.  The top significant effect is then refitted
+variance, its gain is consistent across held-out half-cycles (paired t >= ``T_CRIT``), and
+a position-periodic effect is physical in the sense that, fitted on one direction of motion,
+it still explains at least ``MIN_EXPLAINED_ACROSS`` of the other direction's residual.  The last test matters
+because a sinusoidal excitation repeats the same trajectory every cycle: any unmodelled,
+cycle-locked mismatch is then also position-locked, and a flexible position series (cogging
+with a searched pitch) could fit it across cycles; it cannot fit it across directions unless
+it really is a function of position.  Candidates are ranked
+by held-out error with a BIC-style penalty per parameter, so that of two effects explaining
+the same, the simpler wins.  The top significant effect is then refitted
 properly (nonlinear least squares, all parameters together) and the loop repeats.
 """
 from __future__ import annotations
@@ -27,6 +33,7 @@ from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, fit, predict
 from bench.signals import effective_sample_fraction
 
 MIN_EXPLAINED = 0.15
+MIN_EXPLAINED_ACROSS = 0.10
 T_CRIT = 2.0
 MAX_STEPS = 4
 N_FOLDS = 3
@@ -55,6 +62,7 @@ class Screen:
     mse_before: float
     mse_after: float
     explained: float
+    explained_across: float     # fitted on one direction of motion, scored on the other
     t_stat: float
     score: float
     significant: bool
@@ -75,6 +83,22 @@ class CrossValidation:
         blocks = np.floor(2 * phase).astype(int)
         _, self.block = np.unique(blocks, return_inverse=True)
         self.n_blocks = int(self.block.max() + 1)
+        self.direction = (c.v[self.idx] > 0).astype(int)
+
+    def sse_across_directions(self, X: np.ndarray, r: np.ndarray) -> float:
+        """Squared error of r on each direction of motion after fitting X on the other."""
+        scale = np.linalg.norm(X, axis=0)
+        scale[scale == 0] = 1.0
+        Xs = X / scale
+        total = 0.0
+        for k in (0, 1):
+            test = self.direction == k
+            if test.all() or not test.any():
+                return float("nan")
+            beta, *_ = np.linalg.lstsq(Xs[~test], r[~test], rcond=1e-10)
+            e = r[test] - Xs[test] @ beta
+            total += float(e @ e)
+        return total
 
     def sse(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
         """Held-out squared error per half-cycle block of r after fitting X on the other
@@ -117,7 +141,7 @@ def model_columns(data: FitData, model: Model, base: np.ndarray, idx: np.ndarray
 
 
 def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossValidation,
-           sse_before: np.ndarray, n_eff: float) -> Screen | None:
+           sse_before: np.ndarray, across_before: float, n_eff: float) -> Screen | None:
     """Best variant of ``effect`` by penalised held-out error."""
     best = None
     counts = cv.counts()
@@ -135,11 +159,14 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         d = (sse_before - sse_after) / np.maximum(counts, 1)
         t = float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
         explained = 1.0 - mse_after / mse_before if mse_before > 0 else 0.0
+        across = 1.0 - cv.sse_across_directions(full, r) / across_before if across_before > 0 else 0.0
+        across = across if math.isfinite(across) else 0.0
         score = n_eff * math.log(max(mse_after, 1e-300)) + len(keys) * math.log(max(n_eff, 2.0))
         beta_all = cv.fit_all(full, r)
         beta = {k: float(b) for k, b in zip(keys, beta_all[J.shape[1]:])}
-        s = Screen(effect.name, init, beta, mse_before, mse_after, explained, t, score,
-                   explained >= MIN_EXPLAINED and t >= T_CRIT)
+        s = Screen(effect.name, init, beta, mse_before, mse_after, explained, across, t, score,
+                   explained >= MIN_EXPLAINED and t >= T_CRIT
+                   and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test))
         if best is None or s.score < best.score:
             best = s
     return best
@@ -159,38 +186,49 @@ def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
 
 
 def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
-          inertia: float) -> tuple[Model, FitResult]:
-    """Fit LuGre, the effects already added and ``effect`` together.  A missing effect
-    distorts the LuGre fit it was missing from, so besides starting from the current values,
-    LuGre is also re-identified (Section III + start search) on the friction estimate with
-    the effect's screened contribution removed; the better fit wins."""
-    from bench.identify import NotIdentifiable, lugre_starts, section3_estimates
+          inertia: float, rounds: int = 3) -> tuple[Model, FitResult]:
+    """Fit LuGre, the effects already added and ``effect`` together.
+
+    A missing effect distorts the LuGre fit it was missing from, sometimes into another
+    basin, and the screened (linearised) size of the effect is then only a rough guess.  So
+    besides starting from the current values, LuGre is re-identified (Section III + start
+    search) on the friction estimate with the effects' contribution removed; the cleaning
+    is repeated with the refitted effect values until the cost stops falling."""
     new = _effect_params(effect, init, beta)
     others = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
               for p in model.params if p.name not in LUGRE_KEYS]
     appliers = model.appliers + [effect.apply]
     values = dict(model.values, **{p.name: p.value for p in new})
     starts = [{k: model.values[k] for k in LUGRE_KEYS}]
-    try:
-        contribution = predict(data, values, appliers) - predict(data, model.values, model.appliers)
-        others_contrib = predict(data, model.values, model.appliers) - predict(
-            data, {k: model.values[k] for k in LUGRE_KEYS})
-        cleaned = FitData(c=data.c, friction=data.friction - contribution - others_contrib,
-                          mask=data.mask, z0=data.z0)
-        est = section3_estimates(cleaned, inertia)
-        starts += lugre_starts(cleaned, est, inertia)
-    except (NotIdentifiable, ValueError, FloatingPointError):
-        pass
     best = None
-    for start in starts:
-        lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
-                 for k in LUGRE_KEYS]
-        params = lugre + others + new
-        res = fit(data, params, fixed=dict(values, **start), appliers=appliers, max_nfev=60)
-        if best is None or res.cost < best[1].cost:
-            best = (params, res)
+    for _ in range(rounds):
+        starts += _cleaned_starts(data, values, appliers, inertia)
+        improved = False
+        for start in starts:
+            lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
+                     for k in LUGRE_KEYS]
+            eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in others + new]
+            res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=60)
+            if best is None or res.cost < 0.99 * best[1].cost:
+                best, improved = (lugre + eff, res), True
+        if not improved:
+            break
+        values = dict(best[1].values)
+        starts = []
     params, res = best
     return Model(values=res.values, effects=model.effects + [effect], params=params, result=res), res
+
+
+def _cleaned_starts(data: FitData, values: dict, appliers, inertia: float) -> list[dict]:
+    """LuGre starting points identified on the friction estimate minus the effects."""
+    from bench.identify import NotIdentifiable, lugre_starts, section3_estimates
+    lugre_only = {k: values[k] for k in LUGRE_KEYS}
+    try:
+        contribution = predict(data, values, appliers) - predict(data, lugre_only)
+        cleaned = FitData(c=data.c, friction=data.friction - contribution, mask=data.mask, z0=data.z0)
+        return lugre_starts(cleaned, section3_estimates(cleaned, inertia), inertia)
+    except (NotIdentifiable, ValueError, FloatingPointError):
+        return []
 
 
 @dataclass
@@ -267,7 +305,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         for e in forced:
             if not e.applicable(ctx):
                 raise InputError(f"effect {e.name} does not apply to a {meta.get('joint_type', 'revolute')} joint")
-        screens = [s for s in (screen(e, ctx, model, J, cv, sse_before, n_eff) for e in candidates) if s]
+        across_before = cv.sse_across_directions(J, r)
+        screens = [s for s in (screen(e, ctx, model, J, cv, sse_before, across_before, n_eff)
+                               for e in candidates) if s]
         screens.sort(key=lambda s: s.score)
         nxt = None
         if forced:

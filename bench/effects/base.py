@@ -50,6 +50,9 @@ class Effect:
     name: str = ""
     summary: str = ""
     hyper: tuple[str, ...] = ()       # nonlinear parameters found by search, not screened
+    # a function of position must explain one direction of motion when fitted on the other;
+    # only meaningful where the term is not collinear with Fc within one direction
+    direction_test: bool = False
 
     def applicable(self, ctx: Context) -> bool:
         return True

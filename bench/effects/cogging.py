@@ -46,6 +46,7 @@ class Cogging(Effect):
     name = "cogging"
     summary = "additive torque periodic in position"
     hyper = ("cog_pitch",)
+    direction_test = True
     harmonics = terms.COG_HARMONICS
 
     def variants(self, ctx: Context) -> list[dict]:

@@ -17,6 +17,7 @@ class PositionDependentFriction(Effect):
     name = "position_dependent_friction"
     summary = "friction level periodic in position"
     hyper = ("pf_pitch",)
+    direction_test = True
     harmonics = terms.PF_HARMONICS
 
     def variants(self, ctx: Context) -> list[dict]:
