@@ -12,6 +12,7 @@ import logging
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from api.models import ErrorBody
 from api.runs import Conflict, NotFound
@@ -22,6 +23,20 @@ log = logging.getLogger("api")
 
 def _doc(description: str) -> dict:
     return {"model": ErrorBody, "description": description}
+
+
+def _json_doc(description: str) -> dict:
+    """An error documented as JSON on a route whose own answer is not JSON (HTML, CSV, SSE):
+    FastAPI would otherwise document the error in the route's media type."""
+    return {"description": description,
+            "content": {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorBody"}}}}
+
+
+def non_json(*codes: int) -> dict:
+    texts = {401: "no or unknown API key", 403: "the key's role does not allow this",
+             404: "unknown run or joint", 409: "not available yet: the run has not ended / the trace is "
+             "being written", 422: "invalid request: the message names the field"}
+    return {c: _json_doc(texts[c]) for c in codes}
 
 
 UNAUTHORIZED = {401: _doc("no or unknown API key")}
@@ -49,6 +64,24 @@ def install(app: FastAPI) -> None:
         return JSONResponse({"detail": f"{first['field']}: {first['message']}{more}", "errors": errors},
                             status_code=422)
 
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException):
+        headers = dict(exc.headers or {})
+        if exc.status_code == 400 and exc.detail == "There was an error parsing the body":
+            # FastAPI's answer to a body it cannot even decode; malformed JSON is 422 already
+            return JSONResponse({"detail": "body: not valid JSON text (UTF-8)"}, status_code=422)
+        if exc.status_code == 405:
+            # Starlette names only the first route matching the path; a path served by
+            # several routes (GET and POST /estop) allows the methods of all of them
+            allowed = set()
+            for route in _routes(request.app.router.routes):
+                if getattr(route, "methods", None) and hasattr(route, "path_regex") \
+                        and route.path_regex.match(request.scope["path"]):
+                    allowed |= set(route.methods)
+            if allowed:
+                headers["Allow"] = ", ".join(sorted(allowed))
+        return JSONResponse({"detail": str(exc.detail)}, status_code=exc.status_code, headers=headers or None)
+
     @app.exception_handler(BenchError)
     async def bench_error(request: Request, exc: BenchError):
         status = 404 if isinstance(exc, NotFound) else 409 if isinstance(exc, Conflict) \
@@ -60,6 +93,16 @@ def install(app: FastAPI) -> None:
         log.error("unexpected error on %s %s", request.method, request.url.path, exc_info=exc)
         return JSONResponse({"detail": f"internal error ({exc.__class__.__name__}); it was logged"},
                             status_code=500)
+
+
+def _routes(routes):
+    """Every route, through the routers FastAPI keeps as included sub-routers."""
+    for r in routes:
+        sub = getattr(r, "original_router", None)
+        if sub is not None:
+            yield from _routes(sub.routes)
+        else:
+            yield r
 
 
 def _one_line(exc: Exception) -> str:

@@ -84,7 +84,7 @@ def revoke_key(key_id: str, svc: Service = Depends(service), _=Depends(admin)):
 
 # --- analysis of an uploaded record ------------------------------------------------------------
 _UPLOAD_DOC = {"requestBody": {"required": True, "content": {
-    "text/csv": {"schema": {"type": "string"}},
+    "text/csv": {"schema": {"type": "string", "minLength": 1}},
     "multipart/form-data": {"schema": {"type": "object", "required": ["file"],
                                        "properties": {"file": {"type": "string", "format": "binary"}}}}}}}
 
