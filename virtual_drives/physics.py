@@ -20,9 +20,12 @@ from bench.terms import effect_terms
 
 
 @njit(cache=True)
-def _substep(q0, v0, z0, t, h, tau, M, p, ev, has_terms, v_guess):
+def _substep(q0, v0, z0, t, h, tau, M, p, ev, has_terms, v_guess, slope_guess):
     Fc, Fs, alpha, delta, s0, s1, s2 = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     chord = M + 0.5 * h * (0.5 * s0 * h + s1 + s2)
+    # the slope of the implicit equation changes little from step to step: start Newton
+    # with the last secant, fall back to the (upper-bound) chord
+    last_slope = slope_guess if 0.1 * M < slope_guess < 10.0 * chord else chord
     v1 = v_guess
     g_prev = 0.0
     v_prev = 0.0
@@ -36,11 +39,12 @@ def _substep(q0, v0, z0, t, h, tau, M, p, ev, has_terms, v_guess):
         z1, zbar = bristle_step(z0, vh, h, s, s0)
         Fbar = s0 * zbar + s1 * (z1 - z0) / h + s2 * visc * vh
         g = M * (v1 - v0) - h * (tau - Fbar - add)
-        slope = chord
+        slope = last_slope if it == 0 else chord
         if it > 0 and v1 != v_prev:
             sec = (g - g_prev) / (v1 - v_prev)
             if sec > 0.1 * M and sec < 10.0 * chord:
                 slope = sec
+                last_slope = sec
         dv = g / slope
         v_prev = v1
         g_prev = g
@@ -49,7 +53,7 @@ def _substep(q0, v0, z0, t, h, tau, M, p, ev, has_terms, v_guess):
         # this last iterate is kept (the final correction moves vh by less than that)
         if abs(dv) <= 1e-12 + 1e-9 * abs(v1):
             break
-    return q0 + h * 0.5 * (v0 + v1), v1, z1
+    return q0 + h * 0.5 * (v0 + v1), v1, z1, last_slope
 
 
 @njit(cache=True)
@@ -67,6 +71,7 @@ def simulate(tau, dt, n_sub, M, p, ev, q0, v0, z0, t0):
             has_terms = True
     qi, vi, zi = q0, v0, z0
     acc = 0.0
+    slope = 0.0
     for i in range(n):
         q[i] = qi
         v[i] = vi
@@ -75,7 +80,8 @@ def simulate(tau, dt, n_sub, M, p, ev, q0, v0, z0, t0):
         for j in range(n_sub):
             v_before = vi
             # predictor: the velocity change of the previous sub-step
-            qi, vi, zi = _substep(qi, vi, zi, t + j * h, h, tau[i], M, p, ev, has_terms, vi + acc)
+            qi, vi, zi, slope = _substep(qi, vi, zi, t + j * h, h, tau[i], M, p, ev, has_terms,
+                                         vi + acc, slope)
             acc = vi - v_before
     return q, v, z, qi, vi, zi
 
