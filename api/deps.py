@@ -1,7 +1,8 @@
 """What every route needs: the service state and the caller's key (``Authorization: Bearer``)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from fastapi import Depends, HTTPException, Request
@@ -25,16 +26,19 @@ class Service:
     estop: EStop
     runs: RunManager
     analysis_pool: object = None     # lazily created process pool for POST /analyze
+    run_cache: OrderedDict = field(default_factory=OrderedDict)   # GET /runs/{id} answers (routes_runs)
 
 
-def service(request: Request) -> Service:
+# The dependencies are async on purpose: FastAPI runs a sync dependency in the thread pool,
+# and three thread hops per request cost more CPU (and GIL) than the checks themselves.
+async def service(request: Request) -> Service:
     return request.app.state.service
 
 
 _bearer = HTTPBearer(auto_error=False, description="API key: observer, operator or admin")
 
 
-def principal(creds: HTTPAuthorizationCredentials | None = Depends(_bearer),
+async def principal(creds: HTTPAuthorizationCredentials | None = Depends(_bearer),
               svc: Service = Depends(service)) -> Principal:
     if creds is None or not creds.credentials:
         raise HTTPException(401, "missing API key: send 'Authorization: Bearer <key>'",
@@ -46,7 +50,7 @@ def principal(creds: HTTPAuthorizationCredentials | None = Depends(_bearer),
 
 
 def require(role: str):
-    def check(p: Principal = Depends(principal)) -> Principal:
+    async def check(p: Principal = Depends(principal)) -> Principal:
         if not p.allows(role):
             raise HTTPException(403, f"this needs the {role} role; your key {p.name!r} is {p.role}")
         return p

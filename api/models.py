@@ -35,6 +35,8 @@ class Health(BaseModel):
     clock: str
     estop: bool
     active_runs: int
+    host_overruns: Optional[int] = Field(None, description="control periods the host pacer missed since the "
+                                                           "server started (realtime clock; 0 in lock-step)")
 
 
 class Limits(BaseModel):

@@ -92,7 +92,7 @@ def open_rig(ctx: Context, ids: list[str]) -> Rig:
         rig = Rig(cfg, drives, ctx.cancel)
         rig.virtual_bench = vb
         rig.parked = False
-        ctx.control["host_overruns_start"] = _pacer_overruns(cfg)
+        ctx.control["host_overruns_start"] = pacer_overruns(cfg)
         rig.start()
     except BaseException:
         for d in drives.values():
@@ -130,12 +130,12 @@ def close_rig(ctx: Context, rig: Rig) -> None:
     if vb is not None:
         vb.close()
     start = ctx.control.pop("host_overruns_start", None)
-    end = _pacer_overruns(rig.cfg)
+    end = pacer_overruns(rig.cfg)
     ctx.control.update(clock=rig.cfg.clock, cycles=rig.k, drive_overruns=drive_overruns,
                        host_overruns=None if start is None or end is None else end - start)
 
 
-def _pacer_overruns(cfg: BenchConfig) -> int | None:
+def pacer_overruns(cfg: BenchConfig) -> int | None:
     """The host pacer's overrun count (realtime clock only; shared by every run in this
     process with the same clock and period)."""
     if cfg.clock != "realtime":

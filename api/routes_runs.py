@@ -21,6 +21,8 @@ from bench.store import FINAL
 
 router = APIRouter(tags=["runs"], responses={**E.AUTH})
 SSE_POLL = 0.2          # s between store reads of an SSE stream
+ACTIVE_TTL = 0.1        # s an active run's GET /runs/{id} answer is reused
+RUN_CACHE_SIZE = 512
 
 
 def get_run(svc: Service, run_id: str) -> dict:
@@ -74,8 +76,23 @@ def list_runs(procedure: Optional[str] = Query(None, pattern="^(identify|trackin
 
 
 @router.get("/runs/{run_id}", response_model=RunInfo, responses={**E.NOT_FOUND}, summary="One run")
-def read_run(run_id: str, svc: Service = Depends(service), _=Depends(observer)):
-    return run_info(svc, get_run(svc, run_id))
+async def read_run(run_id: str, svc: Service = Depends(service), _=Depends(observer)):
+    # Polled by every technician's screen while a run goes on: answers are kept for
+    # ACTIVE_TTL while the run is active (progress moves slowly) and for good once it has
+    # ended, so polling costs neither a thread hop nor a SQLite read nor a re-serialisation
+    # most of the time -- the control loops share this process and its GIL.
+    now = time.monotonic()
+    hit = svc.run_cache.get(run_id)
+    if hit is not None and (hit[0] is None or now < hit[0]):
+        return Response(hit[1], media_type="application/json")
+    run = await anyio.to_thread.run_sync(get_run, svc, run_id)
+    active = run["id"] in svc.runs.handles or run["state"] not in FINAL
+    body = run_info(svc, run).model_dump_json().encode()
+    svc.run_cache[run_id] = (now + ACTIVE_TTL if active else None, body)
+    svc.run_cache.move_to_end(run_id)
+    while len(svc.run_cache) > RUN_CACHE_SIZE:
+        svc.run_cache.popitem(last=False)
+    return Response(body, media_type="application/json")
 
 
 @router.post("/runs/{run_id}/cancel", status_code=202, response_model=RunInfo, responses={**E.NOT_FOUND},

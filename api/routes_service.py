@@ -15,6 +15,7 @@ from api import errors as E
 from api.auth import Principal
 from api.deps import Service, admin, observer, operator, principal, service
 from api.models import EStopState, Health, KeyCreate, KeyCreated, KeyInfo, KeyList
+from api.procedures import pacer_overruns
 from api.runs import Conflict, NotFound
 from bench.errors import InputError
 
@@ -25,7 +26,8 @@ MAX_UPLOAD = 20 * 1024 * 1024     # bytes: a 1 kHz record of a few hours
 @router.get("/health", response_model=Health, tags=["service"], summary="Liveness (no key needed)")
 def health(svc: Service = Depends(service)):
     return Health(version=bench.__version__, bench=svc.cfg.name, transport=svc.transport, clock=svc.cfg.clock,
-                  estop=svc.estop.active, active_runs=len(svc.runs.handles))
+                  estop=svc.estop.active, active_runs=len(svc.runs.handles),
+                  host_overruns=pacer_overruns(svc.cfg))
 
 
 # --- e-stop ------------------------------------------------------------------------------------

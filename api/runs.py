@@ -260,14 +260,14 @@ class RunManager:
         st = CalibrationSettings(search=P.search_settings(h.options), tracking=P.tracking_settings(h.options),
                                  force_simulated=self.transport == "simulated",
                                  plots=bool(h.options.get("plots", True)), wrap_drives=self._wrap(h))
-        start = P._pacer_overruns(self.cfg)
+        start = P.pacer_overruns(self.cfg)
         error = None
         try:
             report = calibrate(self.store, h.run_id, on_event=h.on_event, cancel=h.cancel, settings=st)
         except (BenchError, DriveError) as e:   # e.g. the e-stop refused to open the next rig
             report, error = None, str(e)
         run = self.store.get_run(h.run_id)
-        end = P._pacer_overruns(self.cfg)
+        end = P.pacer_overruns(self.cfg)
         result = dict(run["result"] or {})
         result["joints"] = P.calibration_summary(report or result.get("report") or {})
         result["control"] = {"clock": self.cfg.clock, "host_overruns": None if start is None or end is None

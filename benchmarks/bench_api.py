@@ -1,0 +1,210 @@
+"""Benchmark: the REST service under load while a calibration runs on a realtime bench.
+
+Not a timed test: prints a markdown table.  Loopback only; bounded request counts and time.
+
+    python benchmarks/bench_api.py [--clients 50] [--poll 0.2] [--seconds 5] [--rounds 3] [--estops 5]
+
+1. ``bench serve`` in a child process (the server and the control loops share that process,
+   as in production) with macro4 switched to the realtime clock: emulated CANopen / serial
+   drives paced at 1 ms, host pacer counting missed periods (overruns).
+2. A calibration of j1 starts (its rig cycles all four joints every period).
+3. ``--rounds`` pairs of phases of ``--seconds`` each: quiet (no clients), then loaded:
+   ``--clients`` concurrent clients each polling ``GET /runs/{id}`` every ``--poll`` s plus
+   one SSE stream (10 Hz samples).  Latency percentiles; host overruns per phase kind from
+   /health.  Targets: p99 <= 50 ms, no more overruns loaded than quiet.
+5. The calibration is cancelled; its run record's overrun count is reported.
+6. E-stop latency, ``--estops`` times: a tracking run on j3+j4 moving, then POST /estop;
+   client round trip and the server's own latch-to-all-drives-stopped time.  Target <= 50 ms.
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from importlib import resources
+from pathlib import Path
+
+import httpx
+
+from api.server import free_port
+
+
+def start_server(tmp: Path, port: int) -> subprocess.Popen:
+    text = resources.files("procedures.benches").joinpath("macro4.toml").read_text()
+    bench = tmp / "macro4-realtime.toml"
+    bench.write_text(re.sub(r'^clock = "lockstep"', 'clock = "realtime"', text, flags=re.M))
+    env = {**os.environ, "BENCH_API_KEY": ""}
+    proc = subprocess.Popen([sys.executable, "-c", "from bench.cli import main; main()", "serve", "--bench", str(bench),
+                             "--data", str(tmp / "data"), "--port", str(port), "--log-level", "warning"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        try:
+            if httpx.get(f"http://127.0.0.1:{port}/health", timeout=1).status_code == 200:
+                return proc
+        except httpx.HTTPError:
+            time.sleep(0.2)
+    proc.kill()
+    raise SystemExit("server did not start: " + proc.stdout.read().decode()[-2000:])
+
+
+def pct(xs: list[float], p: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(round(p / 100 * (len(xs) - 1))))]
+
+
+async def load(url: str, key: str, run_id: str, clients: int, poll: float, seconds: float) -> dict:
+    lat: list[float] = []
+    errors = 0
+    sse_events = 0
+    stop_at = time.monotonic() + seconds
+    headers = {"Authorization": f"Bearer {key}"}
+    limits = httpx.Limits(max_connections=clients + 5, max_keepalive_connections=clients + 5)
+    async with httpx.AsyncClient(base_url=url, headers=headers, timeout=10, limits=limits) as c:
+        async def poller(i: int):
+            nonlocal errors
+            await asyncio.sleep(poll * i / clients)        # spread the clients over a poll period
+            while time.monotonic() < stop_at:
+                t0 = time.perf_counter()
+                try:
+                    r = await c.get(f"/runs/{run_id}")
+                    ok = r.status_code == 200
+                except httpx.HTTPError:
+                    ok = False
+                lat.append(time.perf_counter() - t0)
+                errors += not ok
+                await asyncio.sleep(max(0.0, poll - (time.perf_counter() - t0)))
+
+        async def sse():
+            nonlocal sse_events
+            try:
+                async with c.stream("GET", f"/runs/{run_id}/events", params={"sample_hz": 10},
+                                    timeout=httpx.Timeout(10, read=seconds + 10)) as r:
+                    async for line in r.aiter_lines():
+                        if line.startswith("event:"):
+                            sse_events += 1
+                        if time.monotonic() >= stop_at:
+                            return
+            except httpx.HTTPError:
+                pass
+
+        await asyncio.gather(sse(), *[poller(i) for i in range(clients)])
+    return {"latencies": lat, "errors": errors, "sse_events": sse_events}
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def overruns(c: httpx.Client) -> int:
+    return c.get("/health").json()["host_overruns"] or 0
+
+
+def wait_state(c: httpx.Client, run_id: str, states, timeout: float = 60) -> dict:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        info = c.get(f"/runs/{run_id}").json()
+        if info["state"] in states:
+            return info
+        time.sleep(0.1)
+    raise SystemExit(f"run {run_id} not in {states} after {timeout} s")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--clients", type=int, default=50)
+    ap.add_argument("--poll", type=float, default=0.2, help="s between one client's polls")
+    ap.add_argument("--seconds", type=float, default=5.0, help="length of one quiet and of one loaded phase")
+    ap.add_argument("--rounds", type=int, default=3, help="quiet/loaded phase pairs")
+    ap.add_argument("--estops", type=int, default=5)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmpdir:
+        tmp = Path(tmpdir)
+        port = free_port()
+        proc = start_server(tmp, port)
+        url = f"http://127.0.0.1:{port}"
+        try:
+            key = (tmp / "data" / "admin.key").read_text().strip()
+            c = httpx.Client(base_url=url, headers={"Authorization": f"Bearer {key}"}, timeout=10)
+            r = c.post("/runs", json={"procedure": "calibrate", "joints": ["j1"], "options": {"plots": False}})
+            run_id = r.json()["id"]
+            wait_state(c, run_id, ("running",))
+            time.sleep(1.0)                              # past rig start-up
+            # alternate quiet and loaded phases: the machine is shared, its background load
+            # drifts, and adjacent phases see about the same background
+            base, loaded = 0, 0
+            res = {"latencies": [], "errors": 0, "sse_events": 0}
+            cpu_quiet = cpu_loaded = 0.0
+            for _ in range(args.rounds):
+                o0, c0 = overruns(c), cpu_seconds(proc.pid)
+                time.sleep(args.seconds)
+                o1, c1 = overruns(c), cpu_seconds(proc.pid)
+                part = asyncio.run(load(url, key, run_id, args.clients, args.poll, args.seconds))
+                o2, c2 = overruns(c), cpu_seconds(proc.pid)
+                base, loaded = base + o1 - o0, loaded + o2 - o1
+                cpu_quiet, cpu_loaded = cpu_quiet + c1 - c0, cpu_loaded + c2 - c1
+                for k in res:
+                    res[k] += part[k]
+            still = c.get(f"/runs/{run_id}").json()["state"]
+            c.post(f"/runs/{run_id}/cancel")
+            final = wait_state(c, run_id, ("succeeded", "failed", "cancelled", "interrupted"), 120)
+            run_overruns = (final.get("result") or {}).get("control", {}).get("host_overruns")
+
+            rtt, server = [], []
+            for i in range(args.estops):
+                r = c.post("/runs", json={"procedure": "tracking", "joints": ["j3", "j4"],
+                                          "options": {"compensation": "off", "plots": False}})
+                rid = r.json()["id"]
+                end = time.monotonic() + 30
+                while time.monotonic() < end and not c.get(f"/joints/j3").json()["drive"]["open"]:
+                    time.sleep(0.05)
+                time.sleep(0.5)
+                t0 = time.perf_counter()
+                body = c.post("/estop").json()
+                rtt.append(time.perf_counter() - t0)
+                server.append(body["stop_latency_ms"] / 1e3)
+                assert all(d["torque_off"] for d in body["drives"]), body
+                wait_state(c, rid, ("failed", "cancelled", "succeeded"), 60)
+                while c.post("/estop/reset").status_code == 409:
+                    time.sleep(0.1)
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+    lat = [x * 1e3 for x in res["latencies"]]
+    ms = lambda x: f"{x * 1e3:.1f}"  # noqa: E731
+    print(f"## REST service under load (macro4, realtime 1 ms clock, calibration of j1 running: {still})\n")
+    print("| metric | value | target |")
+    print("|---|---|---|")
+    total = args.rounds * args.seconds
+    periods = int(total / 0.001)
+    print(f"| GET /runs/{{id}} requests ({args.clients} clients, every {args.poll:g} s, {total:g} s) "
+          f"| {len(lat)} ({res['errors']} errors) | |")
+    print(f"| latency p50 / p90 / p99 / max [ms] | {pct(lat, 50):.1f} / {pct(lat, 90):.1f} / {pct(lat, 99):.1f} / "
+          f"{max(lat):.1f} | p99 <= 50 |")
+    print(f"| SSE events received during load | {res['sse_events']} | |")
+    print(f"| server process CPU, quiet / loaded [% of one core] | {100 * cpu_quiet / total:.0f} / "
+          f"{100 * cpu_loaded / total:.0f} | |")
+    print(f"| server CPU per request (loaded - quiet) [ms] | "
+          f"{1e3 * (cpu_loaded - cpu_quiet) / max(len(lat), 1):.2f} | |")
+    print(f"| host overruns, quiet phases ({total:g} s, {periods} periods) | {base} | |")
+    print(f"| host overruns, loaded phases ({total:g} s, {periods} periods) | {loaded} | no more than quiet |")
+    print(f"| overruns in the calibration run record (whole run) | {run_overruns} | |")
+    print(f"| e-stop round trip (client) median / max [ms], n={len(rtt)} | {ms(statistics.median(rtt))} / "
+          f"{ms(max(rtt))} | <= 50 |")
+    print(f"| e-stop latch -> all drives stopped (server) median / max [ms] | {ms(statistics.median(server))} / "
+          f"{ms(max(server))} | <= 50 |")
+
+
+if __name__ == "__main__":
+    main()
