@@ -126,3 +126,23 @@ def test_estop_during_run_turns_every_torque_off(live, operator, observer, admin
         wait_run(admin, run_id)
         assert admin.post("/estop/reset").status_code == 200
     assert observer.get("/estop").json()["active"] is False
+
+
+def test_estop_reaches_a_calibration_and_its_drives(live, operator, observer, admin):
+    """A calibration opens its drives inside procedures.calibration (through the wrap_drives
+    hook): the e-stop must reach all four of them, and the run must end failed."""
+    r = operator.post("/runs", json={"procedure": "calibrate", "joints": ["j3"], "options": {"plots": False}})
+    assert r.status_code == 202, r.text
+    run_id = r.json()["id"]
+    assert operator.post("/runs", json={"procedure": "identify", "joints": ["j1"]}).status_code == 409
+    try:
+        sse_events(observer, f"/runs/{run_id}/events", stop=lambda ev: ev["event"] == "sample")
+        body = observer.post("/estop").json()
+        assert {d["joint"] for d in body["drives"]} == {"j1", "j2", "j3", "j4"}
+        assert all(d["torque_off"] is True for d in body["drives"]), body["drives"]
+        run = wait_run(observer, run_id)
+        assert run["state"] == "failed" and "emergency stop" in run["error"]
+        assert run["result"]["joints"]["j3"]["status"] != "succeeded"
+    finally:
+        wait_run(admin, run_id)
+        assert admin.post("/estop/reset").status_code == 200
