@@ -186,35 +186,48 @@ def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
 
 
 def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
-          inertia: float, rounds: int = 3) -> tuple[Model, FitResult]:
+          inertia: float, ctx: Context | None = None, rounds: int = 3,
+          expected_rms: float | None = None) -> tuple[Model, FitResult]:
     """Fit LuGre, the effects already added and ``effect`` together.
 
     A missing effect distorts the LuGre fit it was missing from, sometimes into another
     basin, and the screened (linearised) size of the effect is then only a rough guess.  So
     besides starting from the current values, LuGre is re-identified (Section III + start
-    search) on the friction estimate with the effects' contribution removed; the cleaning
-    is repeated with the refitted effect values until the cost stops falling."""
+    search) on the friction estimate with the effects' contribution removed, for the
+    screened effect size and for the effect's own direct estimate if it has one; the
+    cleaning is repeated with the refitted effect values until the cost stops falling.  When
+    the plain local refit already reaches ``expected_rms`` (what the screening promised) and
+    the effect has no direct estimate, that is enough."""
     new = _effect_params(effect, init, beta)
     others = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
               for p in model.params if p.name not in LUGRE_KEYS]
     appliers = model.appliers + [effect.apply]
-    values = dict(model.values, **{p.name: p.value for p in new})
-    starts = [{k: model.values[k] for k in LUGRE_KEYS}]
+    screened = dict(model.values, **{p.name: p.value for p in new})
+    direct = effect.direct_estimate(ctx) if ctx is not None else None
+    candidates = [screened] + ([dict(screened, **direct)] if direct else [])
     best = None
-    for _ in range(rounds):
-        starts += _cleaned_starts(data, values, appliers, inertia)
-        improved = False
-        for start in starts:
-            lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
-                     for k in LUGRE_KEYS]
-            eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in others + new]
-            res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=60)
-            if best is None or res.cost < 0.99 * best[1].cost:
-                best, improved = (lugre + eff, res), True
-        if not improved:
-            break
-        values = dict(best[1].values)
-        starts = []
+
+    def attempt(start, values):
+        nonlocal best
+        lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
+                 for k in LUGRE_KEYS]
+        eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in others + new]
+        res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=60)
+        if best is None or res.cost < 0.99 * best[1].cost:
+            best = (lugre + eff, res)
+            return True
+        return False
+
+    attempt({k: model.values[k] for k in LUGRE_KEYS}, screened)
+    if not (direct is None and expected_rms is not None and best[1].rms <= 1.1 * expected_rms):
+        for values in candidates:
+            for _ in range(rounds):
+                improved = False
+                for start in _cleaned_starts(data, values, appliers, inertia):
+                    improved |= attempt(start, values)
+                if not improved:
+                    break
+                values = dict(best[1].values)
     params, res = best
     return Model(values=res.values, effects=model.effects + [effect], params=params, result=res), res
 
@@ -285,6 +298,8 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
     contexts: list[Context] = []
     baseline_rms = None
     pending: Step | None = None
+    previous = model
+    rejected: set[str] = set()   # refitted, but did not lower the held-out error
     while True:
         base = predict(data, model.values, model.appliers)
         ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia)
@@ -295,6 +310,13 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         rms_now = math.sqrt(sse_before.sum() / counts.sum())
         if baseline_rms is None:
             baseline_rms = rms_now
+        if pending is not None and not pending.forced and rms_now >= 0.99 * pending.rms_before:
+            # the screening promised more than the proper refit delivers: not this effect
+            rejected.add(pending.effect)
+            steps.pop()
+            contexts.pop()
+            model, pending = previous, None
+            continue
         if pending is not None:
             pending.rms_after = rms_now
             pending.evidence = get(pending.effect).evidence(
@@ -308,6 +330,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         across_before = cv.sse_across_directions(J, r)
         screens = [s for s in (screen(e, ctx, model, J, cv, sse_before, across_before, n_eff)
                                for e in candidates) if s]
+        for sc in screens:
+            if sc.effect in rejected:
+                sc.significant = False
         screens.sort(key=lambda s: s.score)
         nxt = None
         if forced:
@@ -321,7 +346,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
             remaining = screens
             break
         effect = get(nxt.effect)
-        model, _ = refit(data, model, effect, nxt.init, nxt.beta, inertia)
+        previous = model
+        model, _ = refit(data, model, effect, nxt.init, nxt.beta, inertia, ctx=ctx,
+                         expected_rms=math.sqrt(nxt.mse_after))
         pending = Step(effect=nxt.effect, significant=nxt.significant, forced=is_forced,
                        rms_before=rms_now, rms_after=None, evidence="", values=dict(model.values),
                        screens=screens)

@@ -54,14 +54,14 @@ class Identification:
 
 
 def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = None,
-            name: str = "record") -> tuple[FitData, float]:
+            name: str = "record", hold: str | None = None) -> tuple[FitData, float]:
     """Condition a record and form the friction estimate with the declared inertia."""
     M = inertia if inertia is not None else rec.inertia
     if M is None:
         raise InputError(f"{name}: no inertia: give --inertia or an 'inertia' metadata line")
     if not (M > 0 and math.isfinite(M)):
         raise InputError(f"{name}: inertia must be a positive number, got {M}")
-    c = condition(rec, cutoff=cutoff, name=name)
+    c = condition(rec, cutoff=cutoff, name=name, hold=hold)
     F = c.friction(M)
     n = len(c.t)
     edge = int(min(n // 10, math.ceil(3.0 / (c.cutoff * c.dt_grid))))
@@ -195,10 +195,7 @@ def lugre_starts(data: FitData, est: dict, M: float) -> list[dict]:
     return starts
 
 
-def identify(rec: Record, inertia: float | None = None, cutoff: float | None = None,
-             name: str = "record") -> Identification:
-    data, M = prepare(rec, inertia, cutoff, name)
-    est = section3_estimates(data, M, name)
+def _fit_lugre(data: FitData, est: dict, M: float) -> FitResult:
     res = None
     for start in lugre_starts(data, est, M):
         data.z0 = _initial_bristle(data, est, start["sigma0"])
@@ -208,6 +205,46 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
         if res is None or r.cost < res.cost:
             res, z0 = r, data.z0
     data.z0 = z0
+    return res
+
+
+def _prefers_sampled_torque(rec: Record, data: FitData, res: FitResult) -> bool:
+    """Was tau sampled at t rather than held until the next sample?  The two conventions
+    differ by half a sample of torque timing.  With zoh applied to sampled data the
+    friction estimate is off by -(tau_sampled - tau_held), filtered: regress the residual on
+    that difference, together with the model's sensitivities to its own parameters (the fit
+    has partly absorbed the error), and look for a coefficient near -1."""
+    from bench.diagnosis import Model, model_columns
+    c = data.c
+    m = data.mask
+    d = (c.lowpass(rec.tau) - c.tau)[m]
+    model = Model(values=res.values, params=res.params)
+    base = predict(data, res.values)
+    J = model_columns(data, model, base, np.nonzero(m)[0])
+    X = np.column_stack([J, d])
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    r = res.residual[m]
+    coef, *_ = np.linalg.lstsq(X / scale, r, rcond=1e-12)
+    beta = coef[-1] / scale[-1]
+    fitted = (X / scale) @ coef
+    return bool(beta < -0.5 and float(fitted @ fitted) > 0.05 * float(r @ r))
+
+
+def identify(rec: Record, inertia: float | None = None, cutoff: float | None = None,
+             name: str = "record") -> Identification:
+    from bench.signals import torque_hold
+    hold = torque_hold(rec, name)
+    data, M = prepare(rec, inertia, cutoff, name, hold)
+    est = section3_estimates(data, M, name)
+    res = _fit_lugre(data, est, M)
+    if hold == "auto":
+        hold = "zoh"
+        if rec.qd is None and _prefers_sampled_torque(rec, data, res):
+            hold = "sample"
+            data, M = prepare(rec, inertia, cutoff, name, hold)
+            est = section3_estimates(data, M, name)
+            res = _fit_lugre(data, est, M)
     p = res.lugre()
     identifiable = {}
     for k in LUGRE_KEYS:
@@ -228,7 +265,7 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
                             + (f" (standard error {se:.3g})" if se is not None else ""))
     fitq = {"rms_error": res.rms, "nrmse": res.nrmse, "fit_percent": 100.0 * (1.0 - res.nrmse),
             "samples": data.n, "effective_sample_fraction": res.n_eff_fraction,
-            "cutoff_hz": data.c.cutoff, "excitation_hz": data.c.frequency}
+            "cutoff_hz": data.c.cutoff, "excitation_hz": data.c.frequency, "torque_hold": hold}
     return Identification(params=p, uncertainty=res.stderr, identifiable=identifiable, fit=fitq,
                           initial={k: _finite_or_none(v) for k, v in est.items()}, inertia=M,
                           data=data, result=res, warnings=warnings)

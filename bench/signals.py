@@ -90,7 +90,7 @@ def choose_cutoff(fs: float, f_exc: float) -> float:
 
 
 def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
-              name: str = "record") -> Conditioned:
+              name: str = "record", hold: str | None = None) -> Conditioned:
     t, q = rec.t, rec.q
     dt = rec.dt
     fs = 1.0 / dt
@@ -119,11 +119,11 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     # the bristle state integrates it, so quantisation noise averages out
     sos_v = signal.butter(2, min(4.0 * fc, 0.4 * fs), fs=fs, output="sos")
     v_mid = signal.sosfiltfilt(sos_v, v_int)
-    # 'torque_hold: sample' marks torques sampled at t; by default a digital drive holds each
-    # command until the next sample
-    hold = str(rec.meta.get("torque_hold", "zoh")).lower()
-    if hold not in ("zoh", "sample"):
-        raise InputError(f"{name}: torque_hold must be 'zoh' or 'sample', not {hold!r}")
+    # 'torque_hold: sample' marks torques sampled at t; 'zoh' commands held until the next
+    # sample (a digital drive); 'auto' or no key: zoh here, and identify() checks the data
+    hold = hold or torque_hold(rec, name)
+    if hold == "auto":
+        hold = "zoh"
     tau_raw = held_torque(rec.tau) if hold == "zoh" and rec.qd is None else rec.tau
     c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=v_mid, q_mid=0.5 * (q[1:] + q[:-1]),
                     t_mid=0.5 * (t[1:] + t[:-1]), decim=decim, t=box_average(t, decim),
@@ -131,6 +131,13 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
                     frequency=f_exc, sos=sos)
     c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(v_raw), c.lowpass(a_raw), c.lowpass(tau_raw)
     return c
+
+
+def torque_hold(rec: Record, name: str = "record") -> str:
+    hold = str(rec.meta.get("torque_hold", "auto")).lower()
+    if hold not in ("zoh", "sample", "auto"):
+        raise InputError(f"{name}: torque_hold must be 'zoh', 'sample' or 'auto', not {hold!r}")
+    return hold
 
 
 def second_difference(q: np.ndarray, dt: float) -> np.ndarray:

@@ -66,6 +66,11 @@ class Effect:
         """Fitted parameters; linear by default (override for positive/log ones)."""
         return [Param(k, v, log=False) for k, v in init.items()]
 
+    def direct_estimate(self, ctx: Context) -> dict | None:
+        """A model-light estimate of the effect's parameters, if the effect has one: an
+        extra starting point for the refit when the LuGre fit it distorted is far off."""
+        return None
+
     def fd_step(self, key: str, ctx: Context) -> float:
         """Finite-difference step for the screening column of ``key``."""
         return 1e-3 * max(float(np.std(ctx.data.friction)), 1e-12)

@@ -2,6 +2,8 @@
 (M_true - M_declared) * qdd in the friction estimate (the paper's Fig. 2)."""
 from __future__ import annotations
 
+import numpy as np
+
 from bench.effects.base import Context, Effect, check_known, explained_text, number
 
 
@@ -11,6 +13,20 @@ class InertiaError(Effect):
 
     def variants(self, ctx: Context) -> list[dict]:
         return [{"inertia_error": 0.0}]
+
+    def direct_estimate(self, ctx: Context) -> dict | None:
+        """Fig. 2's argument made a regression: at high speed the true friction depends on v
+        alone (F = Fc sgn v + sigma2 v), so the friction estimate's dependence on
+        acceleration there is the inertia error."""
+        c, F, m = ctx.data.c, ctx.data.friction, ctx.data.mask
+        speed = np.abs(c.v)
+        vmax = float(np.percentile(speed[m], 99.5))
+        hi = m & (speed > 0.5 * vmax)
+        if hi.sum() < 20:
+            return None
+        X = np.column_stack([np.sign(c.v[hi]), c.v[hi], c.a[hi]])
+        coef, *_ = np.linalg.lstsq(X, F[hi], rcond=None)
+        return {"inertia_error": float(coef[2])}
 
     def fd_step(self, key, ctx):
         return 1e-3 * ctx.inertia
