@@ -23,7 +23,6 @@ from api import procedures as P
 from api.safety import EStop
 
 log = logging.getLogger(__name__)
-SEARCH_STAGES = ("search",)
 
 
 class Conflict(BenchError):
