@@ -34,7 +34,9 @@ STAGES = ("search", "identify", "validate")
 class CalibrationSettings:
     search: SearchSettings = dataclasses.field(default_factory=SearchSettings)
     tracking: TrackingSettings = dataclasses.field(default_factory=TrackingSettings)
-    force_simulated: bool = True   # until the emulated CANopen/serial drives are wired in
+    # False: the bench's emulated CANopen / serial drives (VirtualBench, lock-step) reached
+    # through the driver registry, i.e. the real protocol stacks; True: in-process plugs
+    force_simulated: bool = False
     plots: bool = True
     # called with the freshly opened drives {joint id: drive}, returns the drives the rig uses:
     # the REST service wraps them so its e-stop reaches every open drive (api.safety)

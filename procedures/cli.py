@@ -26,8 +26,9 @@ def register(app: typer.Typer) -> None:
         data: Path = typer.Option(Path("bench-data"), "--data", help="directory of the run store"),
         seed: int = typer.Option(0, "--seed", help="seed of the virtual drives"),
         plots: bool = typer.Option(True, "--plots/--no-plots", help="write PNG plots"),
-        transport: str = typer.Option("simulated", "--transport",
-                                      help="simulated (in-process plugs) or virtual (emulated CANopen/serial drives)"),
+        transport: str = typer.Option("virtual", "--transport",
+                                      help="virtual (emulated CANopen/serial drives reached through the real "
+                                           "protocol stacks; default) or simulated (in-process plugs, fast)"),
     ) -> None:
         """Search excitation, identify and validate by tracking, joint after joint."""
         try:
@@ -40,7 +41,7 @@ def register(app: typer.Typer) -> None:
         raise typer.Exit(code)
 
 
-def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="simulated") -> int:
+def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="virtual") -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 

@@ -33,6 +33,8 @@ class BenchConfig:
     description: str = ""
     source: str = ""
     raw: dict = field(default_factory=dict)
+    # lock-step only: a held joint at rest is cycled once per idle_period (procedures.rig)
+    idle_period: float = 0.02
 
     def joint(self, joint_id: str) -> dict:
         for j in self.joints:
@@ -86,6 +88,9 @@ def parse_bench(raw: dict, source: str = "bench") -> BenchConfig:
     clock = raw.get("clock", "lockstep")
     if clock not in ("lockstep", "realtime"):
         raise InputError(f"{source}: clock must be lockstep or realtime, got {clock!r}")
+    idle = raw.get("idle_period", max(0.02, float(period)))
+    if isinstance(idle, bool) or not isinstance(idle, _NUMBER) or not (period <= idle <= 0.1):
+        raise InputError(f"{source}: idle_period must be a number in [control_period, 0.1] s, got {idle!r}")
     seen: set[str] = set()
     out = []
     for n, j in enumerate(joints, start=1):
@@ -100,7 +105,8 @@ def parse_bench(raw: dict, source: str = "bench") -> BenchConfig:
             raise InputError(f"{source}: joint {j['id']!r}: inertia table refers to unknown joint {key!r}")
     return BenchConfig(name=str(raw.get("name", Path(source).stem)), joints=out,
                        control_period=float(period), clock=clock,
-                       description=str(raw.get("description", "")), source=source, raw=raw)
+                       description=str(raw.get("description", "")), source=source, raw=raw,
+                       idle_period=float(idle))
 
 
 def _num(j: dict, key: str, where: str, positive: bool = True, default=None) -> float:

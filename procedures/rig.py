@@ -1,26 +1,78 @@
 """The bench in motion: every joint cycled once per control period, with safety around it.
 
-Procedures move joints only through a ``Rig``.  Each ``step`` cycles every drive of the bench
+Procedures move joints only through a ``Rig``.  Each ``step`` cycles the drives of the bench
 (joints not commanded hold their position with a stiff PD plus gravity), checks each joint's
 predicted stopping point against its limits *before* sending a torque, logs one trace row,
 and on any ``DriveError`` quick-stops and disables every drive before re-raising as
 ``ProcedureFailed``.  Drives come from a plug factory (``procedures.plugs.open_drive``); the
 rig never knows which transport it talks to.
+
+Order and rate.  Commanded joints are cycled first in a round, so on a shared CAN bus the
+commanded torque goes out before the round's SYNC and applies in the same period (a drive
+that joins a round after its SYNC gets its torque applied one period later).  On a lock-step
+clock a joint that is only held and already at rest (speed under 0.1 % of its limit) is
+cycled once per ``idle_period`` (bench config) instead of every period: its drive keeps the
+last torque in between (CiA 402 latched target torque, ODrive input torque), its watchdog is
+fed well inside its timeout (and at least every ``IDLE_WALL_S`` of wall time), and it is
+cycled every period again as soon as it is commanded or seen moving.  The trace row then
+repeats its last sample.  Lock-step time costs host work per round, so this is where the
+emulated bench gains most; on a real-time clock every joint is cycled every period.
 """
 from __future__ import annotations
 
+import bisect
 import math
+import time
 
 from drivers.protocols import DriveError, Sample, TorqueDrive
-from procedures.config import BenchConfig, declared_inertia, gravity_torque
+from procedures.config import BenchConfig
 from procedures.events import Cancel, ProcedureFailed
 
 HOLD_BANDWIDTH = 20.0    # rad/s: stiff enough to lock a joint, slow enough for 1 kHz
 BRAKE_FRACTION = 0.6     # share of the torque headroom assumed available for braking
+REST_FRACTION = 1e-3     # "at rest": speed under this share of the velocity limit
+IDLE_WALL_S = 0.05       # a resting joint is cycled at least this often in wall time
 
 
 class LimitApproach(ProcedureFailed):
     """A joint would not be able to stop inside its limits; the rig braked it."""
+
+
+class _Axis:
+    """Per-joint constants of the hot path (read once from the joint dict)."""
+
+    __slots__ = ("id", "lo", "hi", "tlim", "ga", "gb", "vrest", "w", "headroom", "hold", "m", "mkey", "mq", "mv")
+
+    def __init__(self, j: dict):
+        self.id = j["id"]
+        self.lo, self.hi = j["position_limits"]
+        self.tlim = float(j["torque_limit"])
+        self.ga, self.gb = (float(x) for x in j["gravity"])
+        self.vrest = REST_FRACTION * float(j["velocity_limit"])
+        self.hold = float(j.get("hold", 0.5 * (self.lo + self.hi)))
+        self.w = float(j.get("hold_bandwidth", HOLD_BANDWIDTH))
+        self.headroom = max(BRAKE_FRACTION * (self.tlim - math.hypot(self.ga, self.gb)), 1e-9)
+        m = j["inertia"]
+        self.m = None if isinstance(m, dict) else float(m)
+        if self.m is None:
+            self.mkey = m.get("joint") or j["id"]
+            self.mq, self.mv = list(m["q"]), list(m["value"])
+
+    def inertia(self, samples: dict, hold: float) -> float:
+        if self.m is not None:
+            return self.m
+        s = samples.get(self.mkey)
+        x = s.position if s is not None else (hold if self.mkey == self.id else 0.0)
+        q, v = self.mq, self.mv        # np.interp semantics: clamp outside the table
+        if x <= q[0]:
+            return v[0]
+        if x >= q[-1]:
+            return v[-1]
+        i = bisect.bisect_right(q, x)
+        return v[i - 1] + (v[i] - v[i - 1]) * (x - q[i - 1]) / (q[i] - q[i - 1])
+
+    def gravity(self, q: float) -> float:
+        return self.ga * math.sin(q) + self.gb * math.cos(q) if (self.ga or self.gb) else 0.0
 
 
 class Rig:
@@ -37,6 +89,14 @@ class Rig:
         self.samples: dict[str, Sample] = {}
         self.hold_at: dict[str, float] = {}
         self.segment = ""
+        self._ax = {jid: _Axis(j) for jid, j in self.joints.items()}
+        idle = getattr(cfg, "idle_period", None)
+        self.idle_every = (max(1, int(round(idle / self.dt)))
+                           if idle and getattr(cfg, "clock", "lockstep") == "lockstep" else 1)
+        self._last_cycle: dict[str, int] = {}        # round of each joint's last cycle
+        self._last_wall: dict[str, float] = {}       # wall time of it
+        self._last_cmd: dict[str, float] = {}        # torque sent then (in force since)
+        self.skipped = 0                             # joint-cycles left out (resting, held)
 
     # --- set-up / tear-down ----------------------------------------------------------------
     def start(self) -> None:
@@ -75,15 +135,14 @@ class Rig:
 
     # --- physics helpers -------------------------------------------------------------------
     def inertia(self, jid: str) -> float:
-        return declared_inertia(self.joints[jid], {i: s.position for i, s in self.samples.items()})
+        ax = self._ax[jid]
+        return ax.inertia(self.samples, ax.hold)
 
     def gravity(self, jid: str, q: float | None = None) -> float:
-        return gravity_torque(self.joints[jid], self.samples[jid].position if q is None else q)
+        return self._ax[jid].gravity(self.samples[jid].position if q is None else q)
 
     def brake_decel(self, jid: str) -> float:
-        j = self.joints[jid]
-        headroom = j["torque_limit"] - math.hypot(*j["gravity"])
-        return max(BRAKE_FRACTION * headroom, 1e-9) / self.inertia(jid)
+        return self._ax[jid].headroom / self.inertia(jid)
 
     def stopping_point(self, jid: str, q: float, v: float, extra_periods: int = 3) -> float:
         """Where the joint would come to rest if braking started now (model-free: declared
@@ -93,42 +152,77 @@ class Rig:
 
     def hold_torque(self, jid: str, target: float | None = None) -> float:
         s = self.samples[jid]
-        M = self.inertia(jid)
-        w = self.joints[jid].get("hold_bandwidth", HOLD_BANDWIDTH)
+        ax = self._ax[jid]
+        M = ax.inertia(self.samples, ax.hold)
+        w = ax.w
         tgt = self.hold_at[jid] if target is None else target
-        return self.gravity(jid) + M * w * w * (tgt - s.position) - 2.0 * M * w * s.velocity
+        return ax.gravity(s.position) + M * w * w * (tgt - s.position) - 2.0 * M * w * s.velocity
 
     # --- the cycle -------------------------------------------------------------------------
+    def _cycle(self, jid: str, tau: float) -> Sample:
+        n = self.drives[jid].cycle(tau)
+        self._last_cycle[jid] = self.k
+        self._last_cmd[jid] = tau
+        if self.idle_every > 1:
+            self._last_wall[jid] = time.monotonic()
+        return n
+
+    def _resting(self, jid: str, now: float) -> bool:
+        """Held, at rest and cycled recently enough to be left out of this round."""
+        last = self._last_cycle.get(jid)
+        return (last is not None and self.k - last < self.idle_every
+                and abs(self.samples[jid].velocity) <= self._ax[jid].vrest
+                and now - self._last_wall.get(jid, now) < IDLE_WALL_S)
+
     def step(self, torques: dict[str, float] | None = None) -> dict[str, Sample]:
-        """One control period for the whole bench.  Returns the new samples."""
+        """One control period for the whole bench.  Returns the new samples of the joints
+        cycled this round (every commanded joint is)."""
         torques = torques or {}
         if self.k % 64 == 0 and self.cancel.is_set():
             self.brake_all()
             self.cancel.check()
-        row = [self.k * self.dt]
+        samples = self.samples
+        # commanded joints first: on a shared CAN bus their torque precedes the round's SYNC
+        order = self.ids if not torques else (
+            [j for j in self.ids if j in torques] + [j for j in self.ids if j not in torques])
+        now = time.monotonic() if self.idle_every > 1 else 0.0
         new = {}
-        for jid in self.ids:
-            j = self.joints[jid]
-            s = self.samples[jid]
-            lo, hi = j["position_limits"]
-            stop = self.stopping_point(jid, s.position, s.velocity)
-            if not lo <= stop <= hi:
+        cols = {}
+        for jid in order:
+            ax = self._ax[jid]
+            s = samples[jid]
+            q, v = s.position, s.velocity
+            if v != 0.0:
+                M = ax.inertia(samples, ax.hold)
+                d = v * v * M / (2.0 * ax.headroom) + abs(v) * 3 * self.dt
+                stop = q + math.copysign(d, v)
+                if not ax.lo <= stop <= ax.hi:
+                    self.brake_all()
+                    raise LimitApproach(f"{jid}: would stop at {stop:.4g}, outside [{ax.lo:.4g}, {ax.hi:.4g}]; braked")
+            elif not ax.lo <= q <= ax.hi:
                 self.brake_all()
-                raise LimitApproach(f"{jid}: would stop at {stop:.4g}, outside [{lo:.4g}, {hi:.4g}]; braked")
+                raise LimitApproach(f"{jid}: at {q:.4g}, outside [{ax.lo:.4g}, {ax.hi:.4g}]; braked")
             tau = torques.get(jid)
             if tau is None:
+                if self.idle_every > 1 and self._resting(jid, now):
+                    self.skipped += 1
+                    cols[jid] = (q, v, s.torque, self._last_cmd.get(jid, 0.0), ax.gravity(q))
+                    continue
                 tau = self.hold_torque(jid)
-            lim = j["torque_limit"]
+            lim = ax.tlim
             tau = min(lim, max(-lim, float(tau)))
             try:
-                new[jid] = self.drives[jid].cycle(tau)
+                new[jid] = self._cycle(jid, tau)
             except DriveError as e:
                 self.emergency_stop()
                 raise ProcedureFailed(f"{jid}: drive error: {e}") from None
-            row += [s.position, s.velocity, new[jid].torque, tau, self.gravity(jid)]
+            cols[jid] = (q, v, new[jid].torque, tau, ax.gravity(q))
         if self.trace is not None:
+            row = [self.k * self.dt]
+            for jid in self.ids:
+                row.extend(cols[jid])
             self.trace.append(row, self.segment)
-        self.samples.update(new)
+        samples.update(new)
         self.k += 1
         return new
 
@@ -182,10 +276,10 @@ class Rig:
         row = [self.k * self.dt]
         for jid in self.ids:
             s = self.samples[jid]
-            lim = self.joints[jid]["torque_limit"]
-            tau = min(lim, max(-lim, torques[jid]))
-            n = self.drives[jid].cycle(tau)
-            row += [s.position, s.velocity, n.torque, tau, self.gravity(jid)]
+            ax = self._ax[jid]
+            tau = min(ax.tlim, max(-ax.tlim, torques[jid]))
+            n = self._cycle(jid, tau)
+            row += [s.position, s.velocity, n.torque, tau, ax.gravity(s.position)]
             self.samples[jid] = n
         if self.trace is not None:
             self.trace.append(row, self.segment or "brake")
