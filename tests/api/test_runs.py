@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from tests.api.conftest import sse_events, wait_run
+from api_helpers import sse_events, wait_run
 
 SHORT_SEARCH = {"search_max_trials": 8, "seed": 5}
 SHORT_TRACKING = {"tracking_period": 2.0, "tracking_cycles": 1.0, "plots": False}
