@@ -281,77 +281,101 @@ class Diagnosis:
         return out
 
 
+@dataclass
+class Evaluated:
+    """A model scored on held-out cycles."""
+    model: Model
+    ctx: Context
+    J: np.ndarray
+    r: np.ndarray
+    sse: np.ndarray
+    rms: float
+
+
+def _evaluate(data: FitData, model: Model, cv: CrossValidation, meta: dict, inertia: float) -> Evaluated:
+    base = predict(data, model.values, model.appliers)
+    ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia)
+    J = model_columns(data, model, base, cv.idx)
+    r = ctx.residual[cv.idx]
+    sse = cv.sse(J, r)
+    return Evaluated(model, ctx, J, r, sse, math.sqrt(sse.sum() / cv.counts().sum()))
+
+
+def _contenders(screens: list[Screen], limit: int = 3) -> list[Screen]:
+    """The top significant candidate, plus any other significant one whose screened
+    remaining error is within 2x of it: a linearised screen around a distorted fit cannot
+    be trusted to separate near-ties (gravity and inertia look alike under sinusoidal
+    motion, where qdd ~ -w^2 q), so those are refitted and compared for real."""
+    sig = [s for s in screens if s.significant]
+    if not sig:
+        return []
+    top = sig[0]
+    return [top] + [s for s in sig[1:] if s.mse_after <= 2.0 * top.mse_after][: limit - 1]
+
+
 def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
              add: list[str] | None = None, max_steps: int = MAX_STEPS, auto: bool = True) -> Diagnosis:
-    """``add``: effects to add first, in order, whatever their significance; then, when
-    ``auto``, keep adding the top significant effect until none is left."""
+    """``add``: effects to add, in order, whatever their significance; without ``add`` (and
+    with ``auto``) keep adding the best significant effect until none is left."""
     forced = [get(n) for n in (add or [])]
-    for e in forced:
-        if sum(1 for f in forced if f.name == e.name) > 1:
-            raise InputError(f"--add names {e.name} twice")
-    values = baseline.values
-    model = Model(values={k: values[k] for k in LUGRE_KEYS},
-                  params=[Param(k, values[k]) for k in LUGRE_KEYS], result=baseline)
+    if len({e.name for e in forced}) != len(forced):
+        raise InputError("--add names an effect twice")
+    model = Model(values={k: baseline.values[k] for k in LUGRE_KEYS},
+                  params=[Param(k, baseline.values[k]) for k in LUGRE_KEYS], result=baseline)
     cv = CrossValidation(data)
-    counts = cv.counts()
+    cur = _evaluate(data, model, cv, meta, inertia)
+    baseline_rms = cur.rms
+    for e in forced:
+        if not e.applicable(cur.ctx):
+            raise InputError(f"effect {e.name} does not apply to a {meta.get('joint_type', 'revolute')} joint")
     steps: list[Step] = []
-    contexts: list[Context] = []
-    baseline_rms = None
-    pending: Step | None = None
-    previous = model
-    rejected: set[str] = set()   # refitted, but did not lower the held-out error
+    contexts: list[Context] = [cur.ctx]
+    rejected: set[str] = set()   # refitted, but the held-out error did not fall
     while True:
-        base = predict(data, model.values, model.appliers)
-        ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia)
-        contexts.append(ctx)
-        J = model_columns(data, model, base, cv.idx)
-        r = ctx.residual[cv.idx]
-        sse_before = cv.sse(J, r)
-        rms_now = math.sqrt(sse_before.sum() / counts.sum())
-        if baseline_rms is None:
-            baseline_rms = rms_now
-        if pending is not None and not pending.forced and rms_now >= 0.99 * pending.rms_before:
-            # the screening promised more than the proper refit delivers: not this effect
-            rejected.add(pending.effect)
-            steps.pop()
-            contexts.pop()
-            model, pending = previous, None
-            continue
-        if pending is not None:
-            pending.rms_after = rms_now
-            pending.evidence = get(pending.effect).evidence(
-                model.values, 1.0 - (rms_now / pending.rms_before) ** 2, ctx)
-            pending = None
-        n_eff = len(r) * effective_sample_fraction(r)
-        candidates = [e for e in EFFECTS.values() if e.name not in model.names() and e.applicable(ctx)]
-        for e in forced:
-            if not e.applicable(ctx):
-                raise InputError(f"effect {e.name} does not apply to a {meta.get('joint_type', 'revolute')} joint")
-        across_before = cv.sse_across_directions(J, r)
-        screens = [s for s in (screen(e, ctx, model, J, cv, sse_before, across_before, n_eff)
+        model = cur.model
+        n_eff = len(cur.r) * effective_sample_fraction(cur.r)
+        across_before = cv.sse_across_directions(cur.J, cur.r)
+        candidates = [e for e in EFFECTS.values() if e.name not in model.names() and e.applicable(cur.ctx)]
+        screens = [s for s in (screen(e, cur.ctx, model, cur.J, cv, cur.sse, across_before, n_eff)
                                for e in candidates) if s]
         for sc in screens:
             if sc.effect in rejected:
                 sc.significant = False
         screens.sort(key=lambda s: s.score)
-        nxt = None
         if forced:
-            e = forced.pop(0)
-            nxt = next((s for s in screens if s.effect == e.name), None)
-            is_forced = True
+            name = forced.pop(0).name
+            contenders = [s for s in screens if s.effect == name]
         elif auto and len(steps) < max_steps:
-            nxt = next((s for s in screens if s.significant), None)
-            is_forced = False
-        if nxt is None:
-            remaining = screens
+            contenders = _contenders(screens)
+        else:
+            contenders = []
+        if not contenders:
             break
-        effect = get(nxt.effect)
-        previous = model
-        model, _ = refit(data, model, effect, nxt.init, nxt.beta, inertia, ctx=ctx,
-                         expected_rms=math.sqrt(nxt.mse_after))
-        pending = Step(effect=nxt.effect, significant=nxt.significant, forced=is_forced,
-                       rms_before=rms_now, rms_after=None, evidence="", values=dict(model.values),
-                       screens=screens)
-        steps.append(pending)
-    return Diagnosis(baseline_rms=baseline_rms, final_rms=rms_now, model=model, steps=steps,
-                     remaining=remaining, contexts=contexts)
+        results = []
+        for sc in contenders:
+            effect = get(sc.effect)
+            new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx,
+                                 expected_rms=math.sqrt(sc.mse_after))
+            ev = _evaluate(data, new_model, cv, meta, inertia)
+            if not forced_step(sc, add) and ev.rms >= 0.99 * cur.rms:
+                rejected.add(sc.effect)
+                continue
+            k = len(new_model.params) - len(model.params)
+            n = max(len(ev.r) * effective_sample_fraction(ev.r), 2.0)
+            results.append((n * math.log(max(ev.rms, 1e-300) ** 2) + k * math.log(n), sc, ev))
+        if not results:
+            continue  # every contender was rejected: screen again without them
+        _, sc, ev = min(results, key=lambda x: x[0])
+        explained = 1.0 - (ev.rms / cur.rms) ** 2
+        steps.append(Step(effect=sc.effect, significant=sc.significant, forced=forced_step(sc, add),
+                          rms_before=cur.rms, rms_after=ev.rms,
+                          evidence=get(sc.effect).evidence(ev.model.values, explained, ev.ctx),
+                          values=dict(ev.model.values), screens=screens))
+        contexts.append(ev.ctx)
+        cur = ev
+    return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
+                     remaining=screens, contexts=contexts)
+
+
+def forced_step(sc: Screen, add: list[str] | None) -> bool:
+    return bool(add) and sc.effect in add
