@@ -13,6 +13,8 @@ Not a timed test: prints a markdown table.  Loopback only; bounded request count
    one SSE stream (10 Hz samples).  Latency percentiles; host overruns per phase kind from
    /health.  Targets: p99 <= 50 ms, no more overruns loaded than quiet.
 5. The calibration is cancelled; its run record's overrun count is reported.
+Clients run in this process (``--client-nice`` to lower their priority); in reality they
+are on other machines.  On a shared machine read the printed load average first.
 6. E-stop latency, ``--estops`` times: a tracking run on j3+j4 moving, then POST /estop;
    client round trip and the server's own latch-to-all-drives-stopped time.  Target <= 50 ms.
 """
@@ -119,12 +121,17 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=5.0, help="length of one quiet and of one loaded phase")
     ap.add_argument("--rounds", type=int, default=3, help="quiet/loaded phase pairs")
     ap.add_argument("--estops", type=int, default=5)
+    ap.add_argument("--client-nice", type=int, default=0, help="niceness of this (client) process")
     args = ap.parse_args()
     load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
         port = free_port()
         proc = start_server(tmp, port)
+        # the clients stand in for technicians' browsers on other machines; --client-nice lets
+        # them yield the shared cores to the server (but then their own latency clock suffers)
+        if args.client_nice:
+            os.nice(args.client_nice)
         url = f"http://127.0.0.1:{port}"
         try:
             key = (tmp / "data" / "admin.key").read_text().strip()
