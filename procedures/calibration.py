@@ -84,19 +84,19 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
                 step.update(status="skipped", reason="an earlier stage of this joint failed")
                 continue
             cancel.check()
-            if step["stage"] == "identify":
-                if rig is not None and not rig.parked:
-                    rig.park()      # nobody cycles the drives while fitting: disable, not starve
-                    rig.parked = True
-            elif rig is None:
-                rig = _open_rig(cfg, run["seed"] or 0, cancel, st)
-            elif rig.parked:
-                rig.start()
-                rig.parked = False
             step["status"] = "running"
             store.set_result(run_id, {"plan": plan})
             emit.event("stage", joint=step["joint"], stage=step["stage"], status="running")
             try:
+                if step["stage"] == "identify":
+                    if rig is not None:
+                        _park(rig)  # nobody cycles the drives while fitting: disable, not starve
+                else:
+                    try:
+                        rig = _ready_rig(rig, cfg, run["seed"] or 0, cancel, st, emit, step)
+                    except BenchError:
+                        rig = None  # closed by _ready_rig
+                        raise
                 _STAGE_FUNCS[step["stage"]](store, cfg, rig, plan, step, emit, st, run_id)
                 step["status"] = "done"
             except Cancelled:
@@ -124,6 +124,38 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
 
 def _joint_failed(plan, joint) -> bool:
     return any(p["joint"] == joint and p["status"] == "failed" for p in plan)
+
+
+def _park(rig: Rig) -> None:
+    """Bring every joint to rest and power the drives off (holding brakes engage) before the
+    host computes or writes files for a while: a drive left enabled but no longer cycled would
+    starve its watchdog.  The next moving stage enables them again."""
+    if not rig.parked:
+        rig.parked = True
+        rig.park()
+
+
+def _ready_rig(rig: Rig | None, cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettings,
+               emit: Emitter, step: dict) -> Rig:
+    """The rig, open and enabled, for a stage that moves a joint.  A bench that fails to open
+    or enable is closed and opened afresh once (a transient communication error on a loaded
+    host); a second failure fails the stage with its reason."""
+    for attempt in (1, 2):
+        try:
+            if rig is None:
+                rig = _open_rig(cfg, seed, cancel, st)
+            elif rig.parked:
+                rig.start()
+                rig.parked = False
+            return rig
+        except BenchError as e:
+            if rig is not None:
+                _close(rig)
+                rig = None
+            if attempt == 2:
+                raise
+            emit.event("retry", joint=step["joint"], stage=step["stage"], reason=str(e))
+    raise AssertionError("unreachable")
 
 
 def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettings) -> Rig:
@@ -154,7 +186,8 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
 def _close(rig: Rig) -> None:
     try:
         rig.trace = None
-        rig.park()
+        if not getattr(rig, "parked", False):
+            rig.park()
     except Exception:
         rig.emergency_stop()
     for d in rig.drives.values():
@@ -183,6 +216,7 @@ def _stage_search(store, cfg, rig, plan, step, emit, st, run_id):
     except BaseException as e:
         _end_child(store, rig, child, cemit, "cancelled" if isinstance(e, Cancelled) else "failed", error=str(e))
         raise
+    _park(rig)      # the files below take a while; the next stage (identify) parks anyway
     summary = res.summary()
     d = store.run_dir(child)
     for lv in res.levels:
@@ -248,7 +282,8 @@ def _stage_validate(store, cfg, rig, plan, step, emit, st, run_id):
     cemit.start(kind="tracking", joint=jid, model_id=ident["result"]["model_id"])
     try:
         res = tracking_test(rig, jid, {"none": None, "identified": params}, st.tracking, cemit,
-                            plot=store.run_dir(child) / "tracking.png" if st.plots else None)
+                            plot=store.run_dir(child) / "tracking.png" if st.plots else None,
+                            before_plot=lambda: _park(rig))
     except BaseException as e:
         _end_child(store, rig, child, cemit, "cancelled" if isinstance(e, Cancelled) else "failed", error=str(e))
         raise

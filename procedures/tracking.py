@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -74,9 +75,10 @@ def run_variant(rig: Rig, jid: str, params: LuGreParams | None, st: TrackingSett
 
 def tracking_test(rig: Rig, jid: str, models: dict[str, LuGreParams | None],
                   settings: TrackingSettings | None = None, emit: Emitter | None = None,
-                  plot: str | Path | None = None) -> dict:
+                  plot: str | Path | None = None, before_plot: Callable[[], None] | None = None) -> dict:
     """Run the same trajectory once per entry of ``models`` (label -> params, None = no
-    compensation).  Returns {label: metrics, "ratios": ...} and writes a PNG if ``plot``."""
+    compensation).  Returns {label: metrics, "ratios": ...} and writes a PNG if ``plot``;
+    ``before_plot`` is called first (e.g. to park the drives: plotting takes a while)."""
     st = settings or TrackingSettings()
     runs = {}
     for label, params in models.items():
@@ -89,6 +91,8 @@ def tracking_test(rig: Rig, jid: str, models: dict[str, LuGreParams | None],
     if "true" in runs and "identified" in runs:
         result["vs_true"] = result["identified"]["rms_error"] / max(result["true"]["rms_error"], 1e-300)
     if plot is not None:
+        if before_plot is not None:
+            before_plot()
         result["plot"] = str(plot_tracking(runs, jid, plot))
     return result
 
