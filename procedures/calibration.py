@@ -76,6 +76,7 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
                resumed=any(p["status"] != "pending" for p in plan), seed=run["seed"])
     rig = None
     state = "succeeded"
+    drivers: dict[str, str] = {}     # joint -> driver class that moved it (this process)
     try:
         for step in plan:
             if step["status"] in ("done", "failed", "skipped"):
@@ -97,6 +98,7 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
                     except BenchError:
                         rig = None  # closed by _ready_rig
                         raise
+                    drivers.update({j: type(d).__name__ for j, d in rig.drives.items()})
                 _STAGE_FUNCS[step["stage"]](store, cfg, rig, plan, step, emit, st, run_id)
                 step["status"] = "done"
             except Cancelled:
@@ -116,7 +118,8 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
     finally:
         if rig is not None:
             _close(rig)
-    report = build_report(store, run_id, cfg, plan)
+    report = build_report(store, run_id, cfg, plan, drivers=drivers,
+                          transport="simulated" if st.force_simulated else "virtual")
     store.finish_run(run_id, state, result={"plan": plan, "report": report})
     emit.stop(state, joints={j: r["status"] for j, r in report["joints"].items()})
     return report
@@ -298,7 +301,8 @@ class _StageFailed(BenchError):
 _STAGE_FUNCS = {"search": _stage_search, "identify": _stage_identify, "validate": _stage_validate}
 
 
-def build_report(store: Store, run_id: str, cfg: BenchConfig, plan: list[dict]) -> dict:
+def build_report(store: Store, run_id: str, cfg: BenchConfig, plan: list[dict],
+                 drivers: dict | None = None, transport: str | None = None) -> dict:
     joints = {}
     for step in plan:
         j = joints.setdefault(step["joint"], {"status": "succeeded", "reason": None, "stages": {}})
@@ -307,7 +311,8 @@ def build_report(store: Store, run_id: str, cfg: BenchConfig, plan: list[dict]) 
             j["status"], j["reason"] = "failed", f"{step['stage']}: {step.get('reason')}"
         elif step["status"] in ("pending", "running") and j["status"] == "succeeded":
             j["status"] = "incomplete"
-    report = {"run_id": run_id, "bench": cfg.name, "joints": joints}
+    report = {"run_id": run_id, "bench": cfg.name, "joints": joints, "transport": transport,
+              "control_period": cfg.control_period, "clock": cfg.clock, "drivers": drivers or {}}
     d = store.run_dir(run_id)
     (d / "report.json").write_text(json.dumps(report, indent=2, default=str))
     (d / "report.html").write_text(_html(report))

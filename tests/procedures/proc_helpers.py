@@ -1,3 +1,4 @@
+import contextlib
 import copy
 
 from procedures.config import load_bench, parse_bench
@@ -18,9 +19,23 @@ def bench_with(name: str, joints: list[str], **overrides):
 
 
 def make_rig(cfg, seed=11):
+    """In-process simulated plugs (fast; unit tests of the procedures)."""
     rig = Rig(cfg, open_drives(cfg.joints, force_simulated=True, seed=seed))
     rig.start()
     return rig
+
+
+@contextlib.contextmanager
+def real_rig(cfg, seed=11):
+    """The bench's emulated drives (lock-step VirtualBench) through the real CANopen and
+    serial stacks, as ``calibrate`` opens them by default."""
+    from procedures.calibration import CalibrationSettings, _close, _open_rig
+    from procedures.events import Cancel
+    rig = _open_rig(cfg, seed, Cancel(), CalibrationSettings())
+    try:
+        yield rig
+    finally:
+        _close(rig)
 
 
 def truth(cfg, jid):

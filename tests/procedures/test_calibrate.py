@@ -1,4 +1,6 @@
-"""End-to-end: `calibrate` on both presets, unattended, through the plug factory."""
+"""End-to-end: `calibrate` on both presets, unattended, with the default transport: the
+presets' emulated drives (lock-step VirtualBench) reached through the real CANopen
+(python-canopen) and serial (ODrive ASCII over a pty) stacks."""
 import json
 
 import numpy as np
@@ -13,7 +15,7 @@ from procedures.cli import register
 from procedures.config import load_bench
 from procedures.tracking import tracking_test
 
-from proc_helpers import make_rig, tolerance_failures, truth
+from proc_helpers import real_rig, tolerance_failures, truth
 
 app = typer.Typer()
 register(app)
@@ -28,7 +30,12 @@ def run_cli(*args):
     return CliRunner().invoke(app, ["calibrate", *args])
 
 
-def check_limits(store: Store, cfg) -> None:
+EXPECTED_DRIVERS = {"canopen": "Cia402Drive", "serial": "OdriveAsciiDrive"}
+
+
+def check_limits(store: Store, cfg) -> int:
+    """Every sample of every trace inside every joint's limits; returns the samples checked."""
+    checked = 0
     for run in store.list_runs(limit=1000):
         d = store.run_dir(run["id"])
         if not any(d.glob("*.parquet")):
@@ -37,7 +44,16 @@ def check_limits(store: Store, cfg) -> None:
         for j in cfg.joints:
             q = tr.column(f"q_{j['id']}").to_numpy()
             lo, hi = j["position_limits"]
+            assert np.all(np.isfinite(q)), f"{j['id']}: non-finite position in run {run['id']}"
             assert lo <= q.min() and q.max() <= hi, f"{j['id']} left its limits in run {run['id']}"
+            checked += len(q)
+    return checked
+
+
+def check_real_stacks(report: dict, cfg) -> None:
+    assert report["transport"] == "virtual" and report["clock"] == "lockstep"
+    assert report["control_period"] == cfg.control_period
+    assert report["drivers"] == {j["id"]: EXPECTED_DRIVERS[j["transport"]] for j in cfg.joints}
 
 
 @pytest.fixture(scope="module")
@@ -56,38 +72,46 @@ def test_calibrate_micro2(tmp_path, preset, seed):
     assert r.exit_code == 0, r.output
     report = json.loads(out.read_text())
     cfg = load_bench(preset)
+    check_real_stacks(report, cfg)       # linear on CANopen, rotary on serial
+    assert set(report["joints"]) == set(cfg.ids)
     for jid, j in report["joints"].items():
+        assert j["status"] == "succeeded", j["reason"]
         ident = j["stages"]["identify"]["result"]
-        assert tolerance_failures(ident["parameters"], truth(cfg, jid), ident["identifiable"]) == []
+        assert tolerance_failures(ident["parameters"], truth(cfg, jid), ident["identifiable"]) == [], jid
         assert j["stages"]["validate"]["result"]["improvement"] > 1.0
-    check_limits(Store(tmp_path), cfg)
+        assert j["stages"]["validate"]["result"]["plot"].endswith("tracking.png")
+    assert check_limits(Store(tmp_path), cfg) > 10000
     assert (tmp_path / "runs" / report["run_id"] / "report.html").exists()
 
 
 def test_calibrate_macro4_parameters_and_limits(macro4):
     data, report = macro4
     cfg = load_bench("macro4")
+    check_real_stacks(report, cfg)       # j1, j2 on CANopen, j3, j4 on serial
     assert set(report["joints"]) == {"j1", "j2", "j3", "j4"}
     for jid, j in report["joints"].items():
         assert j["status"] == "succeeded", j["reason"]
         ident = j["stages"]["identify"]["result"]
         assert tolerance_failures(ident["parameters"], truth(cfg, jid), ident["identifiable"]) == [], jid
-    check_limits(Store(data), cfg)
+        # the calibration's own validation, on the same stacks
+        assert j["stages"]["validate"]["result"]["improvement"] >= 5.0, jid
+    assert check_limits(Store(data), cfg) > 50000
 
 
 def test_macro4_tracking_compensation(macro4):
-    """With the identified model: RMS error <= 1/5 of uncompensated, <= 1.5x the true model's."""
+    """With the identified model: RMS error <= 1/5 of uncompensated, <= 1.5x the true model's,
+    on every joint, through the real CANopen / serial stacks (another seed than calibration)."""
     _, report = macro4
     cfg = load_bench("macro4")
-    rig = make_rig(cfg, seed=23)
-    try:
+    with real_rig(cfg, seed=23) as rig:
+        assert {type(d).__name__ for d in rig.drives.values()} == {"Cia402Drive", "OdriveAsciiDrive"}
         for jid in cfg.ids:
             params = LuGreParams.from_dict(report["joints"][jid]["stages"]["identify"]["result"]["parameters"])
             res = tracking_test(rig, jid, {"none": None, "identified": params, "true": truth(cfg, jid)})
             assert res["identified"]["rms_error"] <= res["none"]["rms_error"] / 5, (jid, res)
             assert res["identified"]["rms_error"] <= 1.5 * res["true"]["rms_error"], (jid, res)
-    finally:
-        rig.park()
+            assert all(lo <= s.position <= hi for s, (lo, hi) in
+                       ((rig.samples[j], cfg.joint(j)["position_limits"]) for j in cfg.ids))
 
 
 def test_unreachable_sliding_ends_with_reason(tmp_path):

@@ -1,4 +1,5 @@
-"""A calibration killed with SIGKILL mid-run: interrupted, partial trace readable, resumable."""
+"""A calibration killed with SIGKILL mid-run: interrupted, partial trace readable, resumable.
+Default transport: the emulated drives through the real serial stack (j3, j4: ODrive ASCII)."""
 import json
 import os
 import signal
@@ -54,6 +55,7 @@ def test_sigkill_then_resume(tmp_path):
     assert r.exit_code == 0, r.output
     report = json.loads(out.read_text())
     assert report["run_id"] == cal["id"]
+    assert report["transport"] == "virtual" and report["drivers"]["j4"] == "OdriveAsciiDrive"
     assert {j: v["status"] for j, v in report["joints"].items()} == {"j3": "succeeded", "j4": "succeeded"}
     assert store.get_run(cal["id"])["state"] == "succeeded"
     # j3's finished stages were kept, not redone
