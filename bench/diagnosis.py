@@ -173,7 +173,12 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
 
 
 def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
+    """The effect's parameters, started at the screened values.  A linear step can overshoot
+    a positive (log-scale) parameter; it is then kept within a factor 4 of its start."""
     start = {k: init[k] + beta.get(k, 0.0) for k in init}
+    positive = {p.name for p in effect.params(init) if p.log}
+    for k in positive:
+        start[k] = float(np.clip(start[k], init[k] / 4.0, init[k] * 4.0))
     params = effect.params(start)
     out = []
     for p in params:
@@ -352,18 +357,29 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         if not contenders:
             break
         results = []
+        improved_base = None
         for sc in contenders:
             effect = get(sc.effect)
             new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx,
                                  expected_rms=math.sqrt(sc.mse_after))
             ev = _evaluate(data, new_model, cv, meta, inertia)
-            if not forced_step(sc, add) and ev.rms >= 0.99 * cur.rms:
-                rejected.add(sc.effect)
-                continue
+            if not forced_step(sc, add):
+                # nested control: the refit also re-optimises LuGre (and the effects already
+                # in); refit without the new effect from those values, and credit the effect
+                # only with what it explains beyond that
+                control = _evaluate(data, _refit_without(data, model, new_model), cv, meta, inertia)
+                if control.rms < cur.rms:
+                    improved_base = control
+                if ev.rms ** 2 > (1.0 - MIN_EXPLAINED) * min(control.rms, cur.rms) ** 2:
+                    rejected.add(sc.effect)
+                    continue
             k = len(new_model.params) - len(model.params)
             n = max(len(ev.r) * effective_sample_fraction(ev.r), 2.0)
             results.append((n * math.log(max(ev.rms, 1e-300) ** 2) + k * math.log(n), sc, ev))
         if not results:
+            if improved_base is not None and improved_base.rms < cur.rms:
+                cur = improved_base      # a better LuGre fit, with no new effect
+                contexts[-1] = cur.ctx
             continue  # every contender was rejected: screen again without them
         _, sc, ev = min(results, key=lambda x: x[0])
         explained = 1.0 - (ev.rms / cur.rms) ** 2
@@ -375,6 +391,17 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         cur = ev
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
                      remaining=screens, contexts=contexts)
+
+
+def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
+    """``model``'s parameters refitted locally, started from the values ``with_effect``
+    reached."""
+    values = {k: with_effect.values[k] for k in model.values}
+    params = [Param(p.name, values[p.name], p.log,
+                    (math.log(values[p.name]) - 4 if p.log else p.lo),
+                    (math.log(values[p.name]) + 4 if p.log else p.hi)) for p in model.params]
+    res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=60)
+    return Model(values=res.values, effects=list(model.effects), params=params, result=res)
 
 
 def forced_step(sc: Screen, add: list[str] | None) -> bool:
