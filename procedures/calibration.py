@@ -21,7 +21,7 @@ from bench.records import read_csv
 from bench.store import Store
 from bench.traces import TraceWriter
 from procedures.config import BenchConfig, load_bench
-from procedures.events import Cancel, Cancelled, Emitter, Sink
+from procedures.events import Cancel, Cancelled, Emitter, ProcedureFailed, Sink
 from procedures.excitation import SearchSettings, search
 from procedures.plugs import open_drives
 from procedures.rig import Rig
@@ -167,8 +167,14 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
     vb, joints = None, cfg.joints
     if not st.force_simulated:
         from virtual_drives.launch import VirtualBench  # the bench's drive side, not a driver
+        check_virtual(cfg)
         vb = VirtualBench(cfg.joints, clock=cfg.clock, control_period=cfg.control_period, seed=seed)
-        vb.start()
+        try:
+            vb.start()
+        except BenchError:
+            raise
+        except Exception as e:  # an emulator that cannot start is this stage's failure, not a crash
+            raise ProcedureFailed(f"cannot start the virtual drives: {e.__class__.__name__}: {e}") from None
         joints = vb.joints
     try:
         drives = open_drives(joints, force_simulated=st.force_simulated, seed=seed,
@@ -184,6 +190,15 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
             vb.close()
         raise
     return rig
+
+
+def check_virtual(cfg: BenchConfig) -> None:
+    """The virtual transport emulates each drive from its joint's ``preset`` (the physical
+    truth); a bench without one (real hardware) cannot be emulated."""
+    for j in cfg.joints:
+        if j["transport"] != "simulated" and not j.get("preset"):
+            raise InputError(f"joint {j['id']!r} has no preset: the virtual transport emulates each "
+                             f"drive from its joint's preset (give preset = \"<name>\")")
 
 
 def _close(rig: Rig) -> None:

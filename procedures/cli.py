@@ -56,6 +56,9 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
         raise InputError("--joints is empty")
     cfg = load_bench(bench)          # validate before touching the store
     chosen = cfg.select(ids)
+    if transport == "virtual":
+        from procedures.calibration import check_virtual
+        check_virtual(cfg)
     try:
         store = Store(data)
     except (OSError, Exception) as e:

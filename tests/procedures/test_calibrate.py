@@ -136,3 +136,15 @@ def test_unreachable_sliding_ends_with_reason(tmp_path):
 def test_bad_input_exit_2(tmp_path, args, message):
     r = CliRunner().invoke(app, ["calibrate", *args, "--data", str(tmp_path)])
     assert r.exit_code == 2 and message in r.output and "Traceback" not in r.output
+
+
+def test_virtual_transport_needs_presets(tmp_path):
+    """A bench of real drives (no preset) cannot be emulated: one line, exit 2, no run left."""
+    toml = tmp_path / "hw.toml"
+    toml.write_text("\n".join([
+        'name = "hw"', "[[joints]]", 'id = "a"', 'transport = "canopen"', 'interface = "socketcan"',
+        'channel = "can0"', "inertia = 2.0", "position_limits = [-1.0, 1.0]", "velocity_limit = 1.0",
+        "torque_limit = 10.0", "counts_per_unit = 10000.0", ""]))
+    r = run_cli("--bench", str(toml), "--data", str(tmp_path / "d"), "--no-plots")
+    assert r.exit_code == 2 and "has no preset" in r.output and "Traceback" not in r.output
+    assert Store(tmp_path / "d").list_runs() == []
