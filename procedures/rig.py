@@ -107,6 +107,7 @@ class Rig:
             for jid in self.ids:
                 self.drives[jid].enable()
                 self.hold_at[jid] = self.samples[jid].position
+            self._last_cycle.clear()   # freshly enabled at torque 0: every joint gets its hold torque next round
         except DriveError as e:
             self.emergency_stop()
             raise ProcedureFailed(f"could not enable the drives: {e}") from None
