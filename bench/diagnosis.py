@@ -85,38 +85,62 @@ class CrossValidation:
         self.n_blocks = int(self.block.max() + 1)
         self.direction = (c.v[self.idx] > 0).astype(int)
 
-    def sse_across_directions(self, X: np.ndarray, r: np.ndarray) -> float:
-        """Squared error of r on each direction of motion after fitting X on the other."""
-        scale = np.linalg.norm(X, axis=0)
-        scale[scale == 0] = 1.0
-        Xs = X / scale
-        total = 0.0
-        for k in (0, 1):
-            test = self.direction == k
-            if test.all() or not test.any():
-                return float("nan")
-            beta, *_ = np.linalg.lstsq(Xs[~test], r[~test], rcond=1e-10)
-            e = r[test] - Xs[test] @ beta
-            total += float(e @ e)
-        return total
+    def _grams(self, X: np.ndarray, r: np.ndarray, groups: np.ndarray, n: int):
+        """Per-group X'X, X'r and r'r: the held-out fits are sums of these."""
+        k = X.shape[1]
+        G = np.zeros((n, k, k))
+        b = np.zeros((n, k))
+        rr = np.zeros(n)
+        for g in range(n):
+            sel = groups == g
+            Xg, rg = X[sel], r[sel]
+            G[g], b[g], rr[g] = Xg.T @ Xg, Xg.T @ rg, rg @ rg
+        return G, b, rr
+
+    @staticmethod
+    def _solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+        # columns are normalised, so the small system is well scaled; lstsq copes with
+        # the near-collinear LuGre sensitivities
+        beta, *_ = np.linalg.lstsq(G, b, rcond=1e-12)
+        return beta
 
     def sse(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
         """Held-out squared error per half-cycle block of r after fitting X on the other
         folds.  X and r are on ``self.idx``."""
-        out = np.zeros(self.n_blocks)
+        Xs = X / self._scale(X)
+        G, b, rr = self._grams(Xs, r, self.block, self.n_blocks)
+        fold_of_block = np.zeros(self.n_blocks, dtype=int)
+        fold_of_block[self.block] = self.fold
+        Gt, bt = G.sum(0), b.sum(0)
+        out = np.empty(self.n_blocks)
+        for k in range(self.n_folds):
+            inf = fold_of_block == k
+            beta = self._solve(Gt - G[inf].sum(0), bt - b[inf].sum(0))
+            out[inf] = rr[inf] - 2 * b[inf] @ beta + np.einsum("i,bij,j->b", beta, G[inf], beta)
+        return np.maximum(out, 0.0)
+
+    def sse_across_directions(self, X: np.ndarray, r: np.ndarray) -> float:
+        """Squared error of r on each direction of motion after fitting X on the other."""
+        if self.direction.all() or not self.direction.any():
+            return float("nan")
+        Xs = X / self._scale(X)
+        G, b, rr = self._grams(Xs, r, self.direction, 2)
+        total = 0.0
+        for k in (0, 1):
+            beta = self._solve(G[1 - k], b[1 - k])
+            total += rr[k] - 2 * b[k] @ beta + beta @ G[k] @ beta
+        return float(max(total, 0.0))
+
+    @staticmethod
+    def _scale(X: np.ndarray) -> np.ndarray:
         scale = np.linalg.norm(X, axis=0)
         scale[scale == 0] = 1.0
-        Xs = X / scale
-        for k in range(self.n_folds):
-            test = self.fold == k
-            beta, *_ = np.linalg.lstsq(Xs[~test], r[~test], rcond=1e-10)
-            e = r[test] - Xs[test] @ beta
-            np.add.at(out, self.block[test], e * e)
-        return out
+        return scale
 
     def fit_all(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
-        beta, *_ = np.linalg.lstsq(X, r, rcond=1e-12)
-        return beta
+        scale = self._scale(X)
+        beta, *_ = np.linalg.lstsq(X / scale, r, rcond=1e-12)
+        return beta / scale
 
     def counts(self) -> np.ndarray:
         return np.bincount(self.block, minlength=self.n_blocks).astype(float)

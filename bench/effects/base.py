@@ -111,19 +111,26 @@ def check_known(kw: dict, allowed: tuple[str, ...], effect: str) -> None:
 def position_periodogram(q: np.ndarray, y: np.ndarray, pitches: np.ndarray,
                          weight: np.ndarray | None = None) -> np.ndarray:
     """Fraction of ``y``'s variance explained by a sine/cosine of q at each pitch (the basis
-    optionally multiplied by ``weight``).  Used to find a pitch from a residual."""
+    optionally multiplied by ``weight``).  Used to find a pitch from a residual; the 2x2
+    least-squares problems are solved in closed form for all pitches at once."""
     yy = y - y.mean()
     total = float(yy @ yy) or 1.0
     out = np.empty(len(pitches))
-    for i, p in enumerate(pitches):
-        ph = 2 * np.pi * q / p
-        X = np.column_stack([np.sin(ph), np.cos(ph)])
+    for lo in range(0, len(pitches), 64):       # chunks bound the memory
+        w = 2 * np.pi / np.asarray(pitches[lo:lo + 64])
+        ph = np.outer(q, w)
+        S, C = np.sin(ph), np.cos(ph)
         if weight is not None:
-            X = X * weight[:, None]
-        X = X - X.mean(axis=0)
-        coef, res, *_ = np.linalg.lstsq(X, yy, rcond=None)
-        fitted = X @ coef
-        out[i] = float(fitted @ fitted) / total
+            S, C = S * weight[:, None], C * weight[:, None]
+        S -= S.mean(axis=0)
+        C -= C.mean(axis=0)
+        ss, cc, sc = (S * S).sum(0), (C * C).sum(0), (S * C).sum(0)
+        ys, yc = yy @ S, yy @ C
+        det = ss * cc - sc * sc
+        det = np.where(det > 1e-12 * (ss * cc + 1e-300), det, np.inf)
+        a = (cc * ys - sc * yc) / det
+        b = (ss * yc - sc * ys) / det
+        out[lo:lo + 64] = (a * ys + b * yc) / total   # explained sum of squares / total
     return out
 
 
