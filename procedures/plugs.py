@@ -2,8 +2,10 @@
 
 Dispatch is by ``joint["transport"]``: the driver registry (``drivers.registry.open_drive``)
 when it is installed, else the in-process simulated plug for every joint (lock-step virtual
-bench).  ``force_simulated`` makes every joint simulated whatever its transport: unit tests
-and the default virtual presets use it until the emulated CANopen/serial drives exist.
+bench).  ``force_simulated`` makes every joint simulated whatever its transport: the fast
+``--transport simulated`` path and unit tests.  By default ``calibrate`` opens the bench's
+emulated CANopen / serial drives (``virtual_drives.launch.VirtualBench``) through the
+registry, i.e. through the real protocol stacks.
 """
 from __future__ import annotations
 
