@@ -231,10 +231,10 @@ def _stage_search(store, cfg, rig, plan, step, emit, st, run_id):
     cemit.start(kind="excitation", joint=jid)
     try:
         res = search(rig, jid, st.search, cemit)
+        _park(rig)      # the files below take a while; the next stage (identify) parks anyway
     except BaseException as e:
         _end_child(store, rig, child, cemit, "cancelled" if isinstance(e, Cancelled) else "failed", error=str(e))
         raise
-    _park(rig)      # the files below take a while; the next stage (identify) parks anyway
     summary = res.summary()
     d = store.run_dir(child)
     for lv in res.levels:
