@@ -215,8 +215,7 @@ def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
 
 
 def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
-          inertia: float, ctx: Context | None = None, rounds: int = 3,
-          expected_rms: float | None = None) -> tuple[Model, FitResult]:
+          inertia: float, ctx: Context | None = None, rounds: int = 3) -> tuple[Model, FitResult]:
     """Fit LuGre, the effects already added and ``effect`` together.
 
     A missing effect distorts the LuGre fit it was missing from, sometimes into another
@@ -224,9 +223,7 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
     besides starting from the current values, LuGre is re-identified (Section III + start
     search) on the friction estimate with the effects' contribution removed, for the
     screened effect size and for the effect's own direct estimate if it has one; the
-    cleaning is repeated with the refitted effect values until the cost stops falling.  When
-    the plain local refit already reaches ``expected_rms`` (what the screening promised) and
-    the effect has no direct estimate, that is enough."""
+    cleaning is repeated with the refitted effect values until the cost stops falling."""
     new = _effect_params(effect, init, beta)
     others = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
               for p in model.params if p.name not in LUGRE_KEYS]
@@ -241,22 +238,23 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
         lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
                  for k in LUGRE_KEYS]
         eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in others + new]
-        res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=60)
+        res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=40)
         if best is None or res.cost < 0.99 * best[1].cost:
             best = (lugre + eff, res)
             return True
         return False
 
     attempt({k: model.values[k] for k in LUGRE_KEYS}, screened)
-    if not (direct is None and expected_rms is not None and best[1].rms <= 1.1 * expected_rms):
-        for values in candidates:
-            for _ in range(rounds):
-                improved = False
-                for start in _cleaned_starts(data, values, appliers, inertia):
-                    improved |= attempt(start, values)
-                if not improved:
-                    break
-                values = dict(best[1].values)
+    # always re-identify as well: the screening's linearised promise can be far worse than
+    # the true optimum, so a local refit that "meets" it may still sit in the wrong basin
+    for values in candidates:
+        for _ in range(rounds):
+            improved = False
+            for start in _cleaned_starts(data, values, appliers, inertia):
+                improved |= attempt(start, values)
+            if not improved:
+                break
+            values = dict(best[1].values)
     params, res = best
     return Model(values=res.values, effects=model.effects + [effect], params=params, result=res), res
 
@@ -384,8 +382,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         improved_base = None
         for sc in contenders:
             effect = get(sc.effect)
-            new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx,
-                                 expected_rms=math.sqrt(sc.mse_after))
+            new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx)
             ev = _evaluate(data, new_model, cv, meta, inertia)
             if not forced_step(sc, add):
                 # nested control: the refit also re-optimises LuGre (and the effects already
@@ -424,7 +421,7 @@ def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
     params = [Param(p.name, values[p.name], p.log,
                     (math.log(values[p.name]) - 4 if p.log else p.lo),
                     (math.log(values[p.name]) + 4 if p.log else p.hi)) for p in model.params]
-    res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=60)
+    res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=20)  # a local polish
     return Model(values=res.values, effects=list(model.effects), params=params, result=res)
 
 

@@ -168,12 +168,12 @@ def _starting_point(data: FitData, est: dict, M: float) -> dict:
     cur = {"Fc": est["Fc"], "Fs": est["Fs"], "alpha": est["alpha"], "sigma2": est["sigma2"],
            "sigma0": s0, "sigma1": 2.0 * math.sqrt(s0 * M)}
     # stiffness and damping first (they shape every reversal), then the Stribeck curve
-    s0_grid = s0 * np.logspace(-2, 2, 17)
+    s0_grid = s0 * np.logspace(-2, 2, 9)
     cur["sigma0"] = min(s0_grid, key=lambda g: cost(dict(cur, sigma0=g, sigma1=2.0 * math.sqrt(g * M))))
     crit = 2.0 * math.sqrt(cur["sigma0"] * M)
-    cur["sigma1"] = min(crit * np.logspace(-3, 1, 13), key=lambda g: cost(dict(cur, sigma1=g)))
+    cur["sigma1"] = min(crit * np.logspace(-3, 1, 9), key=lambda g: cost(dict(cur, sigma1=g)))
     alphas = [est["alpha"]] + ([est["alpha_eq16"]] if np.isfinite(est["alpha_eq16"]) and est["alpha_eq16"] > 0 else [])
-    alphas += list(np.logspace(-0.5, 1.5, 9) / vmax)
+    alphas += list(np.logspace(-0.5, 1.5, 7) / vmax)
     dfs = est["Fs"] - est["Fc"]
     best = None
     for a in alphas:
