@@ -27,7 +27,7 @@ from bench.store import Store
 from procedures.config import load_bench
 
 log = logging.getLogger("api")
-TRANSPORTS = ("virtual", "simulated")
+TRANSPORTS = ("virtual", "simulated", "hardware")  # hardware: the drives the bench file names
 
 
 @dataclass

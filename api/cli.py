@@ -25,7 +25,8 @@ def register(app: typer.Typer) -> None:
         port: int = typer.Option(8000, "--port", help="TCP port"),
         data: Path = typer.Option(Path("bench-data"), "--data", help="directory of the run store and API keys"),
         transport: str = typer.Option("virtual", "--transport",
-                                      help="virtual (emulated CANopen/serial drives) or simulated (in-process plugs)"),
+                                      help="virtual (emulated CANopen/serial drives), simulated (in-process plugs) "
+                                           "or hardware (the drives the bench file names)"),
         log_level: str = typer.Option("info", "--log-level", help="uvicorn log level"),
     ) -> None:
         """The REST service: runs, live events, compensation, e-stop (FastAPI on uvicorn)."""

@@ -85,7 +85,7 @@ def open_rig(ctx: Context, ids: list[str]) -> Rig:
     drives: dict = {}
     try:
         drives = open_drives(joints, force_simulated=ctx.transport == "simulated", seed=seed,
-                             control_period=cfg.control_period)
+                             control_period=cfg.control_period, clock=cfg.clock)
         drives = ctx.wrap_drives(drives)
         if ctx.on_drives is not None:
             ctx.on_drives(drives)

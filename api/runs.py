@@ -258,6 +258,7 @@ class RunManager:
         from procedures.calibration import CalibrationSettings, calibrate
         st = CalibrationSettings(search=P.search_settings(h.options), tracking=P.tracking_settings(h.options),
                                  force_simulated=self.transport == "simulated",
+                                 hardware=self.transport == "hardware",
                                  plots=bool(h.options.get("plots", True)), wrap_drives=self._wrap(h))
         start = P.pacer_overruns(self.cfg)
         error = None

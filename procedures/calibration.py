@@ -37,6 +37,9 @@ class CalibrationSettings:
     # False: the bench's emulated CANopen / serial drives (VirtualBench, lock-step) reached
     # through the driver registry, i.e. the real protocol stacks; True: in-process plugs
     force_simulated: bool = False
+    # True: the drives the bench configuration names, as they are (real hardware, or drives
+    # someone else runs): no emulators are started
+    hardware: bool = False
     plots: bool = True
     # called with the freshly opened drives {joint id: drive}, returns the drives the rig uses:
     # the REST service wraps them so its e-stop reaches every open drive (api.safety)
@@ -118,8 +121,7 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
     finally:
         if rig is not None:
             _close(rig)
-    report = build_report(store, run_id, cfg, plan, drivers=drivers,
-                          transport="simulated" if st.force_simulated else "virtual")
+    report = build_report(store, run_id, cfg, plan, drivers=drivers, transport=transport_name(st))
     store.finish_run(run_id, state, result={"plan": plan, "report": report})
     emit.stop(state, joints={j: r["status"] for j, r in report["joints"].items()})
     return report
@@ -161,11 +163,16 @@ def _ready_rig(rig: Rig | None, cfg: BenchConfig, seed: int, cancel: Cancel, st:
     raise AssertionError("unreachable")
 
 
+def transport_name(st: CalibrationSettings) -> str:
+    return "simulated" if st.force_simulated else "hardware" if st.hardware else "virtual"
+
+
 def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettings) -> Rig:
-    """Simulated plugs in-process, or (force_simulated=False) the emulated CANopen/serial
-    drives of a lock-step virtual bench reached through the driver registry."""
+    """Simulated plugs in-process, the configured drives as they are (``hardware``), or the
+    emulated CANopen/serial drives of a lock-step virtual bench reached through the driver
+    registry."""
     vb, joints = None, cfg.joints
-    if not st.force_simulated:
+    if not st.force_simulated and not st.hardware:
         from virtual_drives.launch import VirtualBench  # the bench's drive side, not a driver
         check_virtual(cfg)
         vb = VirtualBench(cfg.joints, clock=cfg.clock, control_period=cfg.control_period, seed=seed)
@@ -178,7 +185,7 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
         joints = vb.joints
     try:
         drives = open_drives(joints, force_simulated=st.force_simulated, seed=seed,
-                             control_period=cfg.control_period)
+                             control_period=cfg.control_period, clock=cfg.clock)
         if st.wrap_drives is not None:
             drives = st.wrap_drives(drives)
         rig = Rig(cfg, drives, cancel)

@@ -28,12 +28,13 @@ def register(app: typer.Typer) -> None:
         plots: bool = typer.Option(True, "--plots/--no-plots", help="write PNG plots"),
         transport: str = typer.Option("virtual", "--transport",
                                       help="virtual (emulated CANopen/serial drives reached through the real "
-                                           "protocol stacks; default) or simulated (in-process plugs, fast)"),
+                                           "protocol stacks; default), simulated (in-process plugs, fast) or "
+                                           "hardware (the drives the bench file names: CAN adapter, serial port)"),
     ) -> None:
         """Search excitation, identify and validate by tracking, joint after joint."""
         try:
-            if transport not in ("simulated", "virtual"):
-                raise BenchError(f"--transport must be simulated or virtual, got {transport!r}")
+            if transport not in ("simulated", "virtual", "hardware"):
+                raise BenchError(f"--transport must be virtual, simulated or hardware, got {transport!r}")
             code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport)
         except BenchError as e:
             typer.echo(f"error: {e}", err=True)
@@ -82,7 +83,8 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
             elif doc["name"] == "trial" and d.get("joint") in tasks:
                 progress.update(tasks[d["joint"]], status=f"search: trial {d['index']} {d['outcome']}")
 
-        report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(plots=plots, force_simulated=transport == "simulated"))
+        report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(
+            plots=plots, force_simulated=transport == "simulated", hardware=transport == "hardware"))
     text = json.dumps(report, indent=2, default=str)
     if json_out is not None:
         try:

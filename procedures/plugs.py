@@ -31,11 +31,15 @@ def open_drive(joint: dict, force_simulated: bool = False) -> TorqueDrive:
 
 
 def open_drives(joints: list[dict], force_simulated: bool = False, seed: int = 0,
-                control_period: float = 0.001) -> dict[str, TorqueDrive]:
+                control_period: float = 0.001, clock: str | None = None) -> dict[str, TorqueDrive]:
+    """``clock``: the bench's clock, for joints that do not set their own (a lock-step bench's
+    drives judge motion by control periods, not by the host's wall time)."""
     drives: dict[str, TorqueDrive] = {}
     try:
         for n, j in enumerate(joints):
             jj = dict(j, seed=seed * 101 + n, control_period=control_period)
+            if clock is not None:
+                jj.setdefault("clock", clock)
             drives[j["id"]] = open_drive(jj, force_simulated)
     except Exception as e:
         for d in drives.values():
