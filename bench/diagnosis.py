@@ -45,6 +45,7 @@ class Model:
     effects: list[Effect] = field(default_factory=list)
     params: list[Param] = field(default_factory=list)
     result: FitResult | None = None     # the fit that produced ``values``
+    owner: dict = field(default_factory=dict)   # parameter name -> the effect that added it
 
     @property
     def appliers(self):
@@ -256,7 +257,9 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
                 break
             values = dict(best[1].values)
     params, res = best
-    return Model(values=res.values, effects=model.effects + [effect], params=params, result=res), res
+    owner = dict(model.owner, **{p.name: effect.name for p in new})
+    return Model(values=res.values, effects=model.effects + [effect], params=params, result=res,
+                 owner=owner), res
 
 
 def _cleaned_starts(data: FitData, values: dict, appliers, inertia: float) -> list[dict]:
@@ -281,6 +284,7 @@ class Step:
     evidence: str
     values: dict
     screens: list[Screen]
+    removed: bool = False         # added, then found unnecessary by the backward pass
 
 
 @dataclass
@@ -293,13 +297,18 @@ class Diagnosis:
     contexts: list[Context]        # model state before each step and at the end
 
     def entries(self) -> list[dict]:
-        """Ranked diagnosis list of the JSON contract: effects added, in order, then the
-        rest by their last screening."""
+        """Ranked diagnosis list of the JSON contract: the effects of the final model in the
+        order they were added, then effects added and later found unnecessary, then the rest
+        by their last screening."""
         out = []
-        for s in self.steps:
-            out.append({"effect": s.effect, "significant": s.significant, "added": True,
-                        "rms_before": s.rms_before, "rms_after": s.rms_after, "evidence": s.evidence})
+        kept = [s for s in self.steps if not s.removed]
+        for s in kept + [s for s in self.steps if s.removed]:
+            out.append({"effect": s.effect, "significant": s.significant and not s.removed,
+                        "added": not s.removed, "rms_before": s.rms_before, "rms_after": s.rms_after,
+                        "evidence": s.evidence})
         for sc in self.remaining:
+            if any(s.effect == sc.effect for s in self.steps):
+                continue
             eff = get(sc.effect)
             vals = dict(self.model.values, **{k: sc.init[k] + sc.beta.get(k, 0.0) for k in sc.init})
             out.append({"effect": sc.effect, "significant": sc.significant, "added": False,
@@ -410,8 +419,43 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                           values=dict(ev.model.values), screens=screens))
         contexts.append(ev.ctx)
         cur = ev
+    if len([s for s in steps if not s.forced]) > 1:
+        cur = _backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms)
+        contexts.append(cur.ctx)
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
                      remaining=screens, contexts=contexts)
+
+
+def _without(data: FitData, model: Model, name: str) -> Model:
+    """``model`` minus effect ``name``, the rest refitted locally from their current values."""
+    gone = {k for k, owner in model.owner.items() if owner == name}
+    base = Model(values={k: v for k, v in model.values.items() if k not in gone},
+                 effects=[e for e in model.effects if e.name != name],
+                 params=[p for p in model.params if p.name not in gone],
+                 owner={k: o for k, o in model.owner.items() if o != name})
+    return _refit_without(data, base, base)
+
+
+def _backward_pass(data, cur: Evaluated, steps: list[Step], cv, meta, inertia, baseline_rms) -> Evaluated:
+    """Forward selection can add an effect that a later one makes unnecessary (an inertia
+    error mimicking part of a Stribeck shape, say).  Try removing each automatically added
+    effect; drop it when it no longer explains MIN_EXPLAINED of the held-out variance."""
+    for step in [s for s in steps if not s.forced]:
+        trial = _evaluate(data, _without(data, cur.model, step.effect), cv, meta, inertia)
+        if cur.rms ** 2 > (1.0 - MIN_EXPLAINED) * trial.rms ** 2:
+            step.removed = True
+            step.evidence += f" — but not needed once {', '.join(e.name for e in trial.model.effects)} " \
+                             f"was added (held-out rms {trial.rms:.3g} without it)"
+            cur = trial
+    kept = [s for s in steps if not s.removed]
+    if len(kept) < len(steps):  # the reported chain follows the effects that stayed
+        before = baseline_rms
+        for s in kept:
+            s.rms_before = before
+            before = s.rms_after
+        if kept:
+            kept[-1].rms_after = cur.rms
+    return cur
 
 
 def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
@@ -422,7 +466,8 @@ def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
                     (math.log(values[p.name]) - 4 if p.log else p.lo),
                     (math.log(values[p.name]) + 4 if p.log else p.hi)) for p in model.params]
     res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=20)  # a local polish
-    return Model(values=res.values, effects=list(model.effects), params=params, result=res)
+    return Model(values=res.values, effects=list(model.effects), params=params, result=res,
+                 owner=dict(model.owner))
 
 
 def forced_step(sc: Screen, add: list[str] | None) -> bool:
