@@ -190,6 +190,14 @@ def identify_joint(ctx: Context, rig: Rig, jid: str) -> dict:
                            "trials": len(res.trials)}}
 
 
+def _park(rig: Rig) -> None:
+    """Drawing a plot takes a while with nobody cycling the drives: park them (at rest,
+    powered off) rather than starve their watchdogs."""
+    if not rig.parked:
+        rig.park()
+        rig.parked = True
+
+
 # --- tracking ----------------------------------------------------------------------------------
 def tracking_models(store: Store, jid: str, options: dict) -> tuple[dict, str | None]:
     """{label: params or None} for the requested compensation, and the model id used.
@@ -224,7 +232,8 @@ def tracking_joint(ctx: Context, rig: Rig, jid: str) -> dict:
     models, model_id = tracking_models(ctx.store, jid, ctx.options)
     ctx.emit.event("stage", joint=jid, stage="tracking", status="running", variants=list(models))
     plot = ctx.run_dir / f"tracking-{jid}.png" if ctx.options.get("plots", True) else None
-    res = tracking_test(rig, jid, models, tracking_settings(ctx.options), ctx.emit, plot=plot)
+    res = tracking_test(rig, jid, models, tracking_settings(ctx.options), ctx.emit, plot=plot,
+                        before_plot=lambda: _park(rig))
     ctx.emit.event("stage", joint=jid, stage="tracking", status="done")
     out = {"compensation": "both" if len(models) > 1 else next(iter(models)), "model_id": model_id,
            "variants": {k: res[k] for k in models}}
