@@ -19,6 +19,18 @@ def _units(data_meta: dict) -> tuple[str, str]:
     return ("m/s", "N") if prismatic else ("rad/s", "N·m")
 
 
+def _finish(fig, ax, path: Path, title: str, xlabel: str, ylabel: str, legend: dict | None = None) -> Path:
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(**(legend or {"fontsize": 8}))
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def friction_map(data: FitData, values: dict, path: Path, meta: dict | None = None,
                  appliers=(), title: str = "Friction-velocity map") -> Path:
     vu, tu = _units(meta or {})
@@ -32,15 +44,7 @@ def friction_map(data: FitData, values: dict, path: Path, meta: dict | None = No
     p = LuGreParams(**{k: values[k] for k in ("Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2")},
                     delta=values.get("delta", 1.0))
     ax.plot(vv, p.steady_state(vv), "k-", lw=1, label="steady state (6c)")
-    ax.set_xlabel(f"velocity [{vu}]")
-    ax.set_ylabel(f"friction [{tu}]")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, ax, path, title, f"velocity [{vu}]", f"friction [{tu}]")
 
 
 def presliding(data: FitData, values: dict, path: Path, meta: dict | None = None,
@@ -68,15 +72,8 @@ def presliding(data: FitData, values: dict, path: Path, meta: dict | None = None
     lim = values["Fs"] / s0
     xs = np.linspace(-lim, lim, 10)
     ax.plot(xs, s0 * xs, "k:", lw=1, label=f"slope sigma0 = {s0:.4g}")
-    ax.set_xlabel(f"displacement from reversal [{pu}]")
-    ax.set_ylabel(f"friction [{tu}]")
-    ax.set_title("Presliding force-displacement")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, ax, path, "Presliding force-displacement",
+                   f"displacement from reversal [{pu}]", f"friction [{tu}]")
 
 
 def inertia_effect(data: FitData, inertia: float, path: Path, meta: dict | None = None,
@@ -88,15 +85,8 @@ def inertia_effect(data: FitData, inertia: float, path: Path, meta: dict | None 
     for f, style in zip(factors, ("g-", "k-", "m-")):
         ax.plot(c.v[m], c.friction(f * inertia)[m], style, lw=0.6, alpha=0.7,
                 label=f"M = {f:g} x {inertia:.4g}")
-    ax.set_xlabel(f"velocity [{vu}]")
-    ax.set_ylabel(f"friction estimate [{tu}]")
-    ax.set_title("Effect of the inertia on the friction-velocity map (Fig. 2)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, ax, path, "Effect of the inertia on the friction-velocity map (Fig. 2)",
+                   f"velocity [{vu}]", f"friction estimate [{tu}]")
 
 
 def loop_area(v: np.ndarray, F: np.ndarray) -> float:

@@ -1,0 +1,85 @@
+"""What cogging and position-dependent friction share: a Fourier series in position whose
+pitch is found from the residual's periodogram, written into a ``bench.terms`` slot."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bench.effects.base import Context, Effect, pitch_grid, position_periodogram, refine_pitch
+from bench.fitting import Param
+
+
+def format_length(x: float, unit: str) -> str:
+    if unit == "m" and abs(x) < 1.0:
+        return f"{1000 * x:.3g} mm"
+    if unit == "rad":
+        return f"{x:.4g} rad ({math.degrees(x):.3g}°)"
+    return f"{x:.4g} {unit}"
+
+
+def best_pitches(ctx: Context, weight: np.ndarray | None, count: int = 2) -> list[float]:
+    """The ``count`` strongest distinct pitches of the residual (basis times ``weight``)."""
+    idx = np.nonzero(ctx.data.mask)[0][::4]
+    q, r = ctx.data.c.q[idx], ctx.residual[idx]
+    w = None if weight is None else weight[idx]
+    grid = pitch_grid(q)
+    score = position_periodogram(q, r, grid, w)
+    picks: list[float] = []
+    for i in np.argsort(score)[::-1]:
+        p = float(grid[i])
+        if all(abs(1 / p - 1 / o) > 2.0 / np.ptp(q) for o in picks):
+            picks.append(refine_pitch(q, r, p, w))
+        if len(picks) == count:
+            break
+    return picks
+
+
+class PositionSeries(Effect):
+    """sum_k a_k sin(2 pi k q / p) + b_k cos(2 pi k q / p), k = 1..harmonics, into the terms
+    vector at ``pitch_slot`` / ``coef_slot``; parameters named ``<prefix>_pitch``,
+    ``<prefix>_s<k>``, ``<prefix>_c<k>``."""
+    prefix = ""
+    pitch_slot = 0
+    coef_slot = 0
+    harmonics = 1
+    # a function of position must explain one direction of motion when fitted on the other
+    direction_test = True
+
+    @property
+    def hyper(self):
+        return (f"{self.prefix}_pitch",)
+
+    def periodogram_weight(self, ctx: Context) -> np.ndarray | None:
+        return None
+
+    def variants(self, ctx: Context) -> list[dict]:
+        out = []
+        for p in best_pitches(ctx, self.periodogram_weight(ctx)):
+            init = {f"{self.prefix}_pitch": p}
+            for k in range(1, self.harmonics + 1):
+                init[f"{self.prefix}_s{k}"] = 0.0
+                init[f"{self.prefix}_c{k}"] = 0.0
+            out.append(init)
+        return out
+
+    def params(self, init):
+        return [Param(k, v, log=k.endswith("_pitch")) for k, v in init.items()]
+
+    def apply(self, values, extra, ev):
+        ev[self.pitch_slot] = values[f"{self.prefix}_pitch"]
+        for k in range(self.harmonics):
+            ev[self.coef_slot + 2 * k] += values.get(f"{self.prefix}_s{k + 1}", 0.0)
+            ev[self.coef_slot + 2 * k + 1] += values.get(f"{self.prefix}_c{k + 1}", 0.0)
+
+    def pitch(self, values) -> float:
+        return values[f"{self.prefix}_pitch"]
+
+    def fundamental(self, values) -> float:
+        return math.hypot(values.get(f"{self.prefix}_s1", 0.0), values.get(f"{self.prefix}_c1", 0.0))
+
+    def inject_series(self, ev, pitch: float, amplitudes, phase: float) -> None:
+        ev[self.pitch_slot] = pitch
+        for k, amp in enumerate(amplitudes):
+            ev[self.coef_slot + 2 * k] += amp * math.cos(phase * (k + 1))
+            ev[self.coef_slot + 2 * k + 1] += amp * math.sin(phase * (k + 1))
