@@ -214,7 +214,7 @@ def _prefers_sampled_torque(rec: Record, data: FitData, res: FitResult) -> bool:
     friction estimate is off by -(tau_sampled - tau_held), filtered: regress the residual on
     that difference, together with the model's sensitivities to its own parameters (the fit
     has partly absorbed the error), and look for a coefficient near -1."""
-    from bench.diagnosis import Model, model_columns
+    from bench.screening import Model, model_columns
     c = data.c
     m = data.mask
     d = (c.lowpass(rec.tau) - c.tau)[m]

@@ -165,7 +165,7 @@ def main() -> None:
                                           "options": {"compensation": "off", "plots": False}})
                 rid = r.json()["id"]
                 end = time.monotonic() + 30
-                while time.monotonic() < end and not c.get(f"/joints/j3").json()["drive"]["open"]:
+                while time.monotonic() < end and not c.get("/joints/j3").json()["drive"]["open"]:
                     time.sleep(0.05)
                 time.sleep(0.5)
                 t0 = time.perf_counter()

@@ -23,7 +23,7 @@ from scipy.integrate import solve_ivp
 from bench.analysis import analyze_record
 from bench.identify import identify
 from virtual_drives import physics
-from virtual_drives.joint import sine_torque, simulate_record
+from virtual_drives.joint import sine_torque
 from virtual_drives.presets import PRESETS
 from virtual_drives.scenarios import simulate_scenario
 

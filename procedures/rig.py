@@ -259,7 +259,6 @@ class Rig:
             for _ in range(int(2.0 / self.dt)):
                 torques = {jid: self.hold_torque(jid) for jid in self.ids}
                 for jid in self.ids:
-                    s = self.samples[jid]
                     lo, hi = self.joints[jid]["position_limits"]
                     self.hold_at[jid] = min(hi, max(lo, self.hold_at[jid]))
                     torques[jid] = self.hold_torque(jid)

@@ -4,7 +4,7 @@ import pytest
 
 from bench.lugre import LuGreParams
 from virtual_drives import physics
-from virtual_drives.joint import JointSpec, VirtualJoint, simulate_record
+from virtual_drives.joint import VirtualJoint, simulate_record
 from virtual_drives.presets import PRESETS
 
 
@@ -37,7 +37,6 @@ def test_below_stiction_the_joint_only_deflects():
 
 def test_stiff_contact_stays_stable_with_large_steps():
     p = LuGreParams(Fc=1500, Fs=1614, alpha=18, sigma0=1e6, sigma1=0.0, sigma2=11262)
-    spec = JointSpec("stiff", "revolute", 1.0, p, (-10, 10), 10, 1e4, 0.0, 0.0)
     tau = 3000 * np.sin(np.linspace(0, 6 * np.pi, 3000))
     q, v, z, *_ = physics.simulate(tau, 1e-3, 1, 1.0, p.vector(), np.zeros(18), 0.0, 0.0, 0.0, 0.0)
     assert np.all(np.isfinite(q)) and np.max(np.abs(v)) < 1.0

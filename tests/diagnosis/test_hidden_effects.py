@@ -1,7 +1,6 @@
 """Records with hidden effects from the virtual drives, at random realistic magnitudes.
 
 Seeds here (5000+) were never used while tuning the diagnosis (tuning: 1000-1999)."""
-import numpy as np
 import pytest
 
 from bench.analysis import analyze_record

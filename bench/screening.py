@@ -1,0 +1,192 @@
+"""Screening candidate effects on held-out cycles.
+
+Held-out scoring: the record's excitation cycles are dealt into three interleaved folds; a
+model is fitted on two and scored on the third, in turn.  The model is simulated along the
+measured velocity, so holding cycles out needs no re-simulation, only masking.
+
+Screening is a cross-validated Gauss-Newton step around the current fit: the residual is
+regressed on the model's sensitivities to its own parameters (so LuGre can re-adjust) plus
+the candidate effect's sensitivities (finite differences of the same simulation, with any
+nonlinear hyper-parameter such as a pitch found beforehand from the residual's signature).
+An effect is significant when it explains at least ``MIN_EXPLAINED`` of the held-out residual
+variance, its gain is consistent across held-out half-cycles (paired t >= ``T_CRIT``), and
+a position-periodic effect, fitted on one direction of motion, still explains at least
+``MIN_EXPLAINED_ACROSS`` of the other direction's residual.  The last test matters because a
+sinusoidal excitation repeats the same trajectory every cycle: any unmodelled, cycle-locked
+mismatch is then also position-locked, and a flexible position series (cogging with a
+searched pitch) could fit it across cycles; it cannot fit it across directions unless it
+really is a function of position.  Candidates are ranked by held-out error with a BIC-style
+penalty per parameter, so that of two effects explaining the same, the simpler wins.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bench.effects import Context, Effect
+from bench.fitting import FitData, FitResult, Param, predict
+
+MIN_EXPLAINED = 0.15
+MIN_EXPLAINED_ACROSS = 0.10
+T_CRIT = 2.0
+MAX_STEPS = 4
+N_FOLDS = 3
+
+@dataclass
+class Model:
+    values: dict
+    effects: list[Effect] = field(default_factory=list)
+    params: list[Param] = field(default_factory=list)
+    result: FitResult | None = None     # the fit that produced ``values``
+    owner: dict = field(default_factory=dict)   # parameter name -> the effect that added it
+
+    @property
+    def appliers(self):
+        return [e.apply for e in self.effects]
+
+    def names(self) -> list[str]:
+        return [e.name for e in self.effects]
+
+
+@dataclass
+class Screen:
+    effect: str
+    init: dict
+    beta: dict
+    mse_before: float
+    mse_after: float
+    explained: float
+    explained_across: float     # fitted on one direction of motion, scored on the other
+    t_stat: float
+    score: float
+    significant: bool
+
+
+class CrossValidation:
+    """Scores linear corrections of a residual on held-out cycles."""
+
+    def __init__(self, data: FitData, n_folds: int = N_FOLDS):
+        c = data.c
+        step = max(1, int(1.0 / (8.0 * c.cutoff * c.dt_grid)))  # residuals are low-passed
+        self.idx = np.nonzero(data.mask)[0][::step]
+        phase = (c.t[self.idx] - c.t[0]) * c.frequency
+        cycle = np.floor(phase).astype(int)
+        ncyc = int(cycle.max() - cycle.min() + 1)
+        self.n_folds = int(min(n_folds, max(ncyc, 2)))
+        self.fold = (cycle - cycle.min()) % self.n_folds
+        blocks = np.floor(2 * phase).astype(int)
+        _, self.block = np.unique(blocks, return_inverse=True)
+        self.n_blocks = int(self.block.max() + 1)
+        self.direction = (c.v[self.idx] > 0).astype(int)
+
+    def _grams(self, X: np.ndarray, r: np.ndarray, groups: np.ndarray, n: int):
+        """Per-group X'X, X'r and r'r: the held-out fits are sums of these."""
+        k = X.shape[1]
+        G = np.zeros((n, k, k))
+        b = np.zeros((n, k))
+        rr = np.zeros(n)
+        for g in range(n):
+            sel = groups == g
+            Xg, rg = X[sel], r[sel]
+            G[g], b[g], rr[g] = Xg.T @ Xg, Xg.T @ rg, rg @ rg
+        return G, b, rr
+
+    @staticmethod
+    def _solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+        # columns are normalised, so the small system is well scaled; lstsq copes with
+        # the near-collinear LuGre sensitivities
+        beta, *_ = np.linalg.lstsq(G, b, rcond=1e-12)
+        return beta
+
+    def sse(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Held-out squared error per half-cycle block of r after fitting X on the other
+        folds.  X and r are on ``self.idx``."""
+        Xs = X / self._scale(X)
+        G, b, rr = self._grams(Xs, r, self.block, self.n_blocks)
+        fold_of_block = np.zeros(self.n_blocks, dtype=int)
+        fold_of_block[self.block] = self.fold
+        Gt, bt = G.sum(0), b.sum(0)
+        out = np.empty(self.n_blocks)
+        for k in range(self.n_folds):
+            inf = fold_of_block == k
+            beta = self._solve(Gt - G[inf].sum(0), bt - b[inf].sum(0))
+            out[inf] = rr[inf] - 2 * b[inf] @ beta + np.einsum("i,bij,j->b", beta, G[inf], beta)
+        return np.maximum(out, 0.0)
+
+    def sse_across_directions(self, X: np.ndarray, r: np.ndarray) -> float:
+        """Squared error of r on each direction of motion after fitting X on the other."""
+        if self.direction.all() or not self.direction.any():
+            return float("nan")
+        Xs = X / self._scale(X)
+        G, b, rr = self._grams(Xs, r, self.direction, 2)
+        total = 0.0
+        for k in (0, 1):
+            beta = self._solve(G[1 - k], b[1 - k])
+            total += rr[k] - 2 * b[k] @ beta + beta @ G[k] @ beta
+        return float(max(total, 0.0))
+
+    @staticmethod
+    def _scale(X: np.ndarray) -> np.ndarray:
+        scale = np.linalg.norm(X, axis=0)
+        scale[scale == 0] = 1.0
+        return scale
+
+    def fit_all(self, X: np.ndarray, r: np.ndarray) -> np.ndarray:
+        scale = self._scale(X)
+        beta, *_ = np.linalg.lstsq(X / scale, r, rcond=1e-12)
+        return beta / scale
+
+    def counts(self) -> np.ndarray:
+        return np.bincount(self.block, minlength=self.n_blocks).astype(float)
+
+
+def _column(data, values, appliers, base, key, step, idx):
+    v = dict(values)
+    v[key] = v[key] + step
+    return (predict(data, v, appliers)[idx] - base[idx]) / step
+
+
+def model_columns(data: FitData, model: Model, base: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Sensitivities of the current model to all its fitted parameters."""
+    cols = []
+    for p in model.params:
+        x = model.values[p.name]
+        step = 1e-4 * abs(x) if p.log else max(1e-4 * abs(x), 1e-6 * (np.std(data.friction) or 1.0))
+        if step == 0:
+            step = 1e-6
+        cols.append(_column(data, model.values, model.appliers, base, p.name, step, idx))
+    return np.column_stack(cols)
+
+
+def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossValidation,
+           sse_before: np.ndarray, across_before: float, n_eff: float) -> Screen | None:
+    """Best variant of ``effect`` by penalised held-out error."""
+    best = None
+    counts = cv.counts()
+    mse_before = float(sse_before.sum() / counts.sum())
+    for init in effect.variants(ctx):
+        values = dict(model.values, **init)
+        appliers = model.appliers + [effect.apply]
+        keys = [k for k in init if k not in effect.hyper]
+        X = np.column_stack([_column(ctx.data, values, appliers, ctx.model, k, effect.fd_step(k, ctx), cv.idx)
+                             for k in keys])
+        full = np.column_stack([J, X])
+        r = ctx.residual[cv.idx]
+        sse_after = cv.sse(full, r)
+        mse_after = float(sse_after.sum() / counts.sum())
+        d = (sse_before - sse_after) / np.maximum(counts, 1)
+        t = float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
+        explained = 1.0 - mse_after / mse_before if mse_before > 0 else 0.0
+        across = 1.0 - cv.sse_across_directions(full, r) / across_before if across_before > 0 else 0.0
+        across = across if math.isfinite(across) else 0.0
+        score = n_eff * math.log(max(mse_after, 1e-300)) + len(keys) * math.log(max(n_eff, 2.0))
+        beta_all = cv.fit_all(full, r)
+        beta = {k: float(b) for k, b in zip(keys, beta_all[J.shape[1]:])}
+        s = Screen(effect.name, init, beta, mse_before, mse_after, explained, across, t, score,
+                   explained >= MIN_EXPLAINED and t >= T_CRIT
+                   and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test))
+        if best is None or s.score < best.score:
+            best = s
+    return best
