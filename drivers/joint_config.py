@@ -16,21 +16,16 @@ Keys (units: rad / N·m for revolute joints, m / N for prismatic ones):
 from __future__ import annotations
 
 import math
-from numbers import Real
 
 from bench.errors import InputError
+from bench.validate import config_number
 
 TRANSPORTS = ("canopen", "serial", "simulated")
 CLOCKS = ("realtime", "lockstep")
 
 
 def _num(joint: dict, key: str, positive: bool = True) -> float:
-    value = joint[key]
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
-        raise InputError(f"joint {joint.get('id')!r}: {key} must be a number, got {value!r}")
-    if positive and value <= 0:
-        raise InputError(f"joint {joint.get('id')!r}: {key} must be positive, got {value!r}")
-    return float(value)
+    return config_number(joint[key], f"joint {joint.get('id')!r}: {key}", positive)
 
 
 def _pair(joint: dict, key: str, ordered: bool) -> list[float]:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
+from bench.validate import config_number
 
 TRANSPORTS = ("canopen", "serial", "simulated")
 BUILTIN = ("micro2", "macro4")
@@ -114,12 +115,7 @@ def _num(j: dict, key: str, where: str, positive: bool = True, default=None) -> 
         if default is not None:
             return default
         raise InputError(f"{where}: missing {key}")
-    v = j[key]
-    if isinstance(v, bool) or not isinstance(v, _NUMBER) or not math.isfinite(v):
-        raise InputError(f"{where}: {key} must be a number, got {v!r}")
-    if positive and v <= 0:
-        raise InputError(f"{where}: {key} must be positive, got {v!r}")
-    return float(v)
+    return config_number(j[key], f"{where}: {key}", positive)
 
 
 def _pair(j: dict, key: str, where: str, default=None) -> list[float]:
