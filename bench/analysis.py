@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import base64
 import html
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -164,10 +163,3 @@ def render_html(name: str, doc: dict, files: dict) -> str:
         parts.append(f"<p>warning: {e(w)}</p>")
     parts.append("</body></html>")
     return "\n".join(parts)
-
-
-def held_out_improvement(doc: dict) -> float:
-    """1 - final / baseline held-out rms (for summaries)."""
-    b, f = doc["baseline"]["rms_error"], doc["final"]["rms_error"]
-    return 1.0 - f / b if b > 0 and math.isfinite(f) else 0.0
-

@@ -109,8 +109,7 @@ class FitResult:
 
 
 def fit(data: FitData, params: list[Param], fixed: dict | None = None,
-        appliers: list[Applier] = (), max_nfev: int = 200,
-        weights: np.ndarray | None = None) -> FitResult:
+        appliers: list[Applier] = (), max_nfev: int = 200) -> FitResult:
     """Least-squares fit of ``params`` (others held at ``fixed``)."""
     fixed = dict(fixed or {})
     # the grid holds ~10 samples per cutoff period of a low-passed residual: every third is
@@ -118,7 +117,6 @@ def fit(data: FitData, params: list[Param], fixed: dict | None = None,
     mask = np.zeros_like(data.mask)
     mask[np.nonzero(data.mask)[0][::3]] = True
     y = data.friction
-    w = np.ones(mask.sum()) if weights is None else weights[mask]
 
     def values_of(x):
         vals = dict(fixed)
@@ -127,7 +125,7 @@ def fit(data: FitData, params: list[Param], fixed: dict | None = None,
         return vals
 
     def resid(x):
-        r = (y - predict(data, values_of(x), appliers))[mask] * w
+        r = (y - predict(data, values_of(x), appliers))[mask]
         return r if np.all(np.isfinite(r)) else np.full_like(r, 1e6 * (np.abs(y).max() + 1))
 
     x0 = np.array([np.clip(p.to_x(p.value), p.lo, p.hi) for p in params])

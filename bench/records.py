@@ -52,10 +52,6 @@ class Record:
     def joint_type(self) -> str:
         return str(self.meta.get("joint_type", "revolute"))
 
-    def slice(self, start: int, stop: int) -> "Record":
-        qd = None if self.qd is None else self.qd[start:stop]
-        return Record(self.t[start:stop], self.tau[start:stop], self.q[start:stop], qd, dict(self.meta))
-
     def to_csv(self, path: str | Path | None = None) -> str:
         buf = io.StringIO()
         for k, v in self.meta.items():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from bench import terms
 from bench.effects.base import Context, Effect, check_known, explained_text, number
+from bench.errors import InputError
 
 
 class DirectionAsymmetry(Effect):
@@ -30,7 +31,6 @@ class DirectionAsymmetry(Effect):
         check_known(kw, ("ratio",), self.name)
         a = number(kw, "ratio", self.name)
         if not -0.9 < a < 0.9:
-            from bench.errors import InputError
             raise InputError("effect direction_asymmetry: ratio must lie in (-0.9, 0.9)")
         ev[terms.ASYM] += a
         return {}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from bench.effects.base import Context, Effect, check_known, explained_text, number
+from bench.errors import InputError
 
 
 class InertiaError(Effect):
@@ -44,6 +45,5 @@ class InertiaError(Effect):
         check_known(kw, ("factor",), self.name)
         factor = number(kw, "factor", self.name)
         if factor <= 0:
-            from bench.errors import InputError
             raise InputError("effect inertia_error: factor (declared / true inertia) must be positive")
         return {"inertia_factor": factor}

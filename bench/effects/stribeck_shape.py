@@ -3,6 +3,7 @@ like delta = 2 is common in lubricated contacts; the paper's model is delta = 1)
 from __future__ import annotations
 
 from bench.effects.base import Context, Effect, check_known, explained_text, number
+from bench.errors import InputError
 from bench.fitting import Param
 
 
@@ -32,6 +33,5 @@ class StribeckShape(Effect):
         check_known(kw, ("delta",), self.name)
         d = number(kw, "delta", self.name)
         if not 0.1 <= d <= 5:
-            from bench.errors import InputError
             raise InputError("effect stribeck_shape: delta must lie in [0.1, 5]")
         return {"delta": d}

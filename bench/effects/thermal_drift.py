@@ -6,6 +6,7 @@ import math
 
 from bench import terms
 from bench.effects.base import Context, Effect, check_known, explained_text, number
+from bench.errors import InputError
 from bench.fitting import Param
 
 
@@ -38,7 +39,6 @@ class ThermalDrift(Effect):
         check_known(kw, ("gain", "tau"), self.name)
         gain, tau = number(kw, "gain", self.name), number(kw, "tau", self.name)
         if tau <= 0 or gain <= -0.9:
-            from bench.errors import InputError
             raise InputError("effect thermal_drift: tau must be positive and gain > -0.9")
         ev[terms.THERM_GAIN] = gain
         ev[terms.THERM_TAU] = tau
