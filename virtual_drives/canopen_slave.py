@@ -31,9 +31,12 @@ _FMT = {(8, False): "B", (16, False): "H", (32, False): "I",
 CAN_FAULTS = ("drop_heartbeats", "emcy", "freeze_status", "mute", "late", "glitch")
 
 
-def _clamp(x: int, bits: int, signed: bool) -> int:
-    lo, hi = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed else (0, (1 << bits) - 1)
-    return min(max(x, lo), hi)
+def _range(bits: int, signed: bool) -> tuple[int, int]:
+    return (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed else (0, (1 << bits) - 1)
+
+
+def _clamp(x: int, lo: int, hi: int) -> int:
+    return lo if x < lo else hi if x > hi else x
 
 
 class Cia402Slave:
@@ -61,10 +64,10 @@ class Cia402Slave:
         d = self.node.data_store
         d[0x6076] = {0: struct.pack("<I", int(round(self.rated * 1000)))}
         d[0x6072] = {0: struct.pack("<H", _clamp(int(round(core.max_torque / self.rated
-                                                               * 1000)), 16, False))}
+                                                               * 1000)), *_range(16, False)))}
         lo, hi = (int(round(x * self.cpu)) for x in core.limits)
-        d[0x607D] = {1: struct.pack("<i", _clamp(lo, 32, True)),
-                     2: struct.pack("<i", _clamp(hi, 32, True))}
+        d[0x607D] = {1: struct.pack("<i", _clamp(lo, *_range(32, True))),
+                     2: struct.pack("<i", _clamp(hi, *_range(32, True)))}
         d[0x6502] = {0: struct.pack("<I", sum({4: 1 << 3, 10: 1 << 9}.get(m, 0)
                                               for m in self.supported_modes))}
         self.node.add_read_callback(self._on_read)
@@ -177,11 +180,11 @@ class Cia402Slave:
         if index == 0x6061:
             return self.mode
         if index == 0x6064:
-            return _clamp(int(round(core.vj.measured_position() * self.cpu)), 32, True)
+            return _clamp(int(round(core.vj.measured_position() * self.cpu)), *_range(32, True))
         if index == 0x606C:
-            return _clamp(int(round(core.vj.state.v * self.cpu)), 32, True)
+            return _clamp(int(round(core.vj.state.v * self.cpu)), *_range(32, True))
         if index == 0x6077:
-            return _clamp(int(round(core.applied / self.rated * 1000)), 16, True)
+            return _clamp(int(round(core.applied / self.rated * 1000)), *_range(16, True))
         if index == 0x2001:
             return int(round(core.vj.state.t * 1e6)) & 0xFFFFFFFF
         if index == 0x603F:
@@ -283,7 +286,8 @@ class Cia402Slave:
             cob = struct.unpack("<I", g(0x1800 + i, 1))[0]
             trans = g(0x1800 + i, 2)[0]
             if not cob & 0x80000000 and 1 <= trans <= 240:
-                self._tpdo.append((cob & 0x7FF, trans, *self._layout(self._entries(0x1A00 + i))))
+                layout, entries = self._layout(self._entries(0x1A00 + i))
+                self._tpdo.append((cob & 0x7FF, trans, layout, self._slots(layout, entries)))
         self._dirty = False
 
     def _on_rpdo(self, can_id, data, timestamp) -> None:
@@ -332,24 +336,34 @@ class Cia402Slave:
         else:
             self._send(frames)
 
+    # objects the drive measures at each SYNC; anything else mapped is read from the
+    # dictionary.  _compile turns each TPDO mapping into (slot or reader, bits, signed)
+    _LIVE = {0x6041: 0, 0x6061: 1, 0x6064: 2, 0x606C: 3, 0x6077: 4, 0x2001: 5}
+
     def _pack(self) -> list[tuple[int, bytes]]:
         t, q, v, tau = self.core.measure()
-        values = {0x6041: self.statusword(), 0x6061: self.mode,
-                  0x6064: int(round(q * self.cpu)), 0x606C: int(round(v * self.cpu)),
-                  0x6077: int(round(tau / self.rated * 1000)),
-                  0x2001: int(round(t * 1e6)) & 0xFFFFFFFF}
+        live = (self.statusword(), self.mode, int(round(q * self.cpu)), int(round(v * self.cpu)),
+                int(round(tau / self.rated * 1000)), int(round(t * 1e6)) & 0xFFFFFFFF)
         frames = []
-        for cob, trans, layout, entries in self._tpdo:
+        for cob, trans, layout, slots in self._tpdo:
             if self.sync_count % trans:
                 continue
-            vals = []
-            for (index, subindex, bits), code in zip(entries, layout.format[1:]):
-                raw = values.get(index)
-                if raw is None:
-                    raw = struct.unpack("<" + code, self.node.get_data(index, subindex))[0]
-                vals.append(_clamp(raw, bits, code.islower()))
+            vals = [_clamp(live[src] if src.__class__ is int else src(), lo, hi)
+                    for src, lo, hi in slots]
             frames.append((cob, layout.pack(*vals)))
         return frames
+
+    def _slots(self, layout: struct.Struct, entries) -> list:
+        out = []
+        for (index, subindex, bits), code in zip(entries, layout.format[1:]):
+            src = self._LIVE.get(index)
+            if src is None:
+                fmt = "<" + code
+                src = (lambda i=index, s=subindex, f=fmt:
+                       struct.unpack(f, self.node.get_data(i, s))[0])
+            lo, hi = _range(bits, code.islower())
+            out.append((src, lo, hi))
+        return out
 
     def _send(self, frames) -> None:
         for cob, payload in frames:

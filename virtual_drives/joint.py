@@ -71,11 +71,16 @@ class VirtualJoint:
         lo, hi = spec.position_limits
         self.state = JointState(q=0.5 * (lo + hi) if q0 is None else float(q0))
         self.applied_torque = 0.0
+        self._cmd1 = np.zeros(1)
 
     def advance(self, tau: float, periods: int = 1) -> JointState:
         """Hold ``tau`` for ``periods`` control periods."""
         s = self.state
-        cmd = np.full(int(periods), float(tau))
+        if periods == 1:          # the per-SYNC case: no allocation
+            cmd = self._cmd1
+            cmd[0] = tau
+        else:
+            cmd = np.full(int(periods), float(tau))
         _, _, _, q, v, z = simulate(cmd, self.dt, self.n_sub, self.spec.inertia, self.p,
                                     self.ev, s.q, s.v, s.z, s.t)
         self.state = JointState(t=s.t + periods * self.dt, q=q, v=v, z=z)
