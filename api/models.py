@@ -35,8 +35,9 @@ class Health(BaseModel):
     clock: str
     estop: bool
     active_runs: int
-    host_overruns: Optional[int] = Field(None, description="control periods the host pacer missed since the "
-                                                           "server started (realtime clock; 0 in lock-step)")
+    host_overruns: Optional[int] = Field(None, description="control periods the runs' host pacers missed since "
+                                                           "the server started: ended runs plus the live counts "
+                                                           "of active ones (realtime clock; 0 in lock-step)")
 
 
 class Limits(BaseModel):

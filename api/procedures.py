@@ -2,7 +2,8 @@
 identify one joint (excitation search, then identification and diagnosis) and a tracking
 test with the joint's compensation off, on, or both.  Built from procedures' parts (Rig,
 ``search``, ``tracking_test``) and bench's (``analyze_record``, the store's models); a
-calibration run calls ``procedures.calibration.calibrate`` itself (see ``api.runs``).
+calibration run calls ``procedures.calibration.calibrate`` itself (see ``api.run_child``).
+Everything here runs in the run's own control process, not in the server.
 
 A run's rig holds only that run's joints, so runs on other joints can go on beside it.
 """
@@ -136,8 +137,8 @@ def close_rig(ctx: Context, rig: Rig) -> None:
 
 
 def pacer_overruns(cfg: BenchConfig) -> int | None:
-    """The host pacer's overrun count (realtime clock only; shared by every run in this
-    process with the same clock and period)."""
+    """The host pacer's overrun count (realtime clock only; shared by every rig in this
+    process with the same clock and period: in the service, one run's control process)."""
     if cfg.clock != "realtime":
         return 0
     try:

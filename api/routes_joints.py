@@ -46,11 +46,9 @@ def _model(svc: Service, joint_id: str, comp: dict) -> ModelInfo | None:
 def _drive(svc: Service, joint_id: str) -> DriveInfo:
     run_id = svc.runs.busy.get(joint_id)
     h = svc.runs.handles.get(run_id) if run_id else None
-    d = h.drives.get(joint_id) if h is not None else None
-    if d is not None and d.last is not None and not d.closed:
-        s = d.last
-        return DriveInfo(state=s.state.value, t=s.t, position=s.position, velocity=s.velocity,
-                         torque=s.torque, open=True)
+    live = h.drive_sample(joint_id) if h is not None else None      # relayed by the run's process
+    if live is not None:
+        return DriveInfo(**live, open=True)
     last = svc.runs.last_drive.get(joint_id)
     return DriveInfo(**last, open=False) if last else DriveInfo(open=False)
 

@@ -15,7 +15,6 @@ from api import errors as E
 from api.auth import Principal
 from api.deps import Service, admin, observer, operator, principal, service
 from api.models import EStopState, Health, KeyCreate, KeyCreated, KeyInfo, KeyList
-from api.procedures import pacer_overruns
 from api.runs import Conflict, NotFound
 from bench.errors import InputError
 
@@ -27,7 +26,7 @@ MAX_UPLOAD = 20 * 1024 * 1024     # bytes: a 1 kHz record of a few hours
 def health(svc: Service = Depends(service)):
     return Health(version=bench.__version__, bench=svc.cfg.name, transport=svc.transport, clock=svc.cfg.clock,
                   estop=svc.estop.active, active_runs=len(svc.runs.handles),
-                  host_overruns=pacer_overruns(svc.cfg))
+                  host_overruns=svc.runs.host_overruns())
 
 
 # --- e-stop ------------------------------------------------------------------------------------
@@ -42,7 +41,9 @@ def _estop_state(svc: Service, extra: dict | None = None) -> EStopState:
              summary="Torque off on every drive now (any valid key); latched until an admin resets it")
 async def estop(request: Request, svc: Service = Depends(service), who: Principal = Depends(principal)):
     # async on purpose: it runs on the event loop itself, never waiting for a worker thread
-    # of the thread pool that the other (blocking) handlers share
+    # of the thread pool that the other (blocking) handlers share.  It blocks the loop until
+    # every run process has answered (milliseconds; at most api.safety.REMOTE_WAIT, then the
+    # silent ones are killed): nothing else should be served before the bench is stopped.
     result = svc.estop.trigger(f"e-stop by {who.name} ({who.role})")
     return _estop_state(svc, {"stop_latency_ms": result["stop_latency_ms"], "drives": result["drives"]})
 

@@ -1,26 +1,34 @@
-"""Run manager: one worker thread per run, joint locks, cancel, progress, live samples.
+"""Run manager: one control process per run, joint locks, cancel, progress, live samples.
 
 A run takes its joints when it is created (``start`` answers 409 when one is busy or the
 e-stop is latched), so a run never waits in a queue behind another: ``queued`` only lasts
-until its worker thread has claimed it.  The worker owns the run's rig; request handlers
-only read the store and the in-memory ``RunHandle`` (progress, newest samples), so they
-never block the control loop.
+until its process has claimed it.  The process (``api.run_process`` / ``api.run_child``) owns
+the run's rig and writes the run's record; a reader thread per run applies its status
+messages to the in-memory ``RunHandle`` (progress, newest samples, host overruns), which is
+all request handlers read besides the store, so they never block a control loop, and the
+server's GIL cannot stall one.
+
+A run ends in three steps: its process closes the drives and says "finishing" (the joints
+are released here, then acknowledged), it ends the record, and it exits (the handle goes).
+A process that dies without ending its record gets it ended here: ``interrupted`` when it
+was killed, ``failed`` when it exited otherwise.
 """
 from __future__ import annotations
 
 import logging
+import signal
 import threading
 import time
 from dataclasses import dataclass, field
 
 from bench.errors import BenchError, InputError
 from bench.store import FINAL, Store, pid_alive
-from drivers.protocols import DriveError
 from procedures.config import BenchConfig
-from procedures.events import Cancel, Cancelled, Emitter
+from procedures.events import Emitter
 
 from api import procedures as P
-from api.safety import EStop
+from api.run_process import RunProcess, context
+from api.safety import EStop, EStopActive
 
 log = logging.getLogger(__name__)
 
@@ -35,45 +43,27 @@ class NotFound(BenchError):
 
 @dataclass
 class RunHandle:
+    """The server's view of an active run; its control process (``proc``) feeds it."""
     run_id: str
     procedure: str
-    joints: list[str]            # joints the run holds
+    joints: list[str]            # the run's joints
     options: dict
-    stages_total: int
-    cancel: Cancel = field(default_factory=Cancel)
-    drives: dict = field(default_factory=dict)      # joint -> GuardedDrive while open
-    stages_done: int = 0
-    partial: float = 0.0         # progress inside the running stage, 0..1
+    held: list[str]              # joints it holds (a calibration: every joint of the bench)
+    proc: RunProcess | None = None
+    progress: float = 0.0
+    live: dict = field(default_factory=dict)     # joint -> newest sample, from the process
+    open_joints: list = field(default_factory=list)
+    overruns: int = 0            # host overruns of the run's control loop so far
     estopped: str | None = None
-    thread: threading.Thread | None = None
+    released: bool = False       # drives closed, joints free; the process is ending its record
     done: threading.Event = field(default_factory=threading.Event)
 
-    @property
-    def progress(self) -> float:
-        if self.stages_total <= 0:
-            return 0.0
-        return min(1.0, (self.stages_done + min(self.partial, 0.99)) / self.stages_total)
-
-    def on_event(self, doc: dict) -> None:
-        """Sink of the run's documents, called in the control thread: counters only."""
-        name, d = doc.get("name"), doc.get("data") or {}
-        if name == "stage":
-            if d.get("status") in ("done", "failed", "skipped"):
-                self.stages_done += 1
-                self.partial = 0.0
-        elif name == "trial":             # excitation trials: a geometric approach to 1
-            self.partial = 1.0 - 0.75 * (1.0 - self.partial)
-        elif name == "tracking":          # one variant finished
-            self.partial = min(0.99, self.partial + 0.5)
-
     def samples(self) -> dict:
-        out = {}
-        for jid, d in list(self.drives.items()):
-            s = getattr(d, "last", None)
-            if s is not None:
-                out[jid] = {"t": s.t, "position": s.position, "velocity": s.velocity, "torque": s.torque,
-                            "state": getattr(s.state, "value", str(s.state))}
-        return out
+        return dict(self.live)
+
+    def drive_sample(self, jid: str) -> dict | None:
+        """The newest sample of a drive the run has open now, else None."""
+        return self.live.get(jid) if jid in self.open_joints else None
 
 
 class RunManager:
@@ -84,13 +74,15 @@ class RunManager:
         self.transport = transport
         self.estop = estop
         self.busy: dict[str, str] = {}              # joint -> run id
-        self.handles: dict[str, RunHandle] = {}     # active runs
+        self.handles: dict[str, RunHandle] = {}     # active runs (until their process exits)
         self.finished_progress: dict[str, float] = {}
         self.last_drive: dict[str, dict] = {}       # joint -> last sample/state after its run
+        self._overruns_ended = 0                    # host overruns of the runs that have ended
         self._lock = threading.Lock()
         self._closing = False
         estop.on_trigger(self._on_estop)
         self._recover()
+        context()                                   # the forkserver starts loading now
 
     def _recover(self) -> None:
         """Runs a previous server left running are interrupted; queued ones never started."""
@@ -124,12 +116,23 @@ class RunManager:
                                                config={"procedure": procedure, "joints": ids, "options": options,
                                                        "bench": self.bench_spec, "transport": self.transport})
                 total = len(ids) * (2 if procedure == "identify" else 1)
-            h = RunHandle(run_id, procedure, ids, dict(options), total)
+            h = RunHandle(run_id, procedure, ids, dict(options), list(held))
+            spec = {"run_id": run_id, "procedure": procedure, "joints": ids, "held": list(held),
+                    "options": dict(options), "stages_total": total, "cfg": self.cfg,
+                    "transport": self.transport, "data_dir": str(self.store.dir.resolve())}
+            h.proc = RunProcess(spec, lambda msg: self._on_message(h, msg))
+            try:       # started under the e-stop's lock: a trigger either reaches it or refused it
+                self.estop.add_target(h.proc, start=h.proc.start)
+            except EStopActive as e:
+                self.store.finish_run(run_id, "failed", error=str(e))
+                raise Conflict(str(e)) from None
+            except Exception as e:
+                log.exception("run %s: cannot start its control process", run_id)
+                self.store.finish_run(run_id, "failed", error=f"cannot start the run's control process: {e}")
+                raise
             for j in held:
                 self.busy[j] = run_id
             self.handles[run_id] = h
-            h.thread = threading.Thread(target=self._work, args=(h,), name=f"run-{run_id}", daemon=True)
-            h.thread.start()
         return h
 
     def _joints_for(self, procedure: str, joints: list[str] | None) -> list[str]:
@@ -148,29 +151,37 @@ class RunManager:
     def cancel(self, run_id: str, reason: str = "cancelled by request") -> bool:
         """Ask an active run to ramp down and end ``cancelled``; False if it is not active."""
         h = self.handles.get(run_id)
-        if h is None:
+        if h is None or h.proc is None:
             return False
-        h.cancel.set(reason)
+        h.proc.cancel(reason)
         return True
 
     def _on_estop(self, reason: str) -> None:
+        # the processes were told by EStop.trigger itself; this marks the runs as stopping
         for h in list(self.handles.values()):
-            h.estopped = reason
-            h.cancel.set(f"emergency stop: {reason}")
+            if not h.released:
+                h.estopped = reason
 
     def shutdown(self, timeout: float = 20.0) -> None:
+        """Cancel every run (ramp-down), wait up to ``timeout``, then kill what is left."""
         with self._lock:
             self._closing = True
             handles = list(self.handles.values())
         for h in handles:
-            h.cancel.set("the service is shutting down")
+            h.proc.cancel("the service is shutting down")
         deadline = time.monotonic() + timeout
         for h in handles:
-            if h.thread is not None:
-                h.thread.join(max(0.0, deadline - time.monotonic()))
+            h.done.wait(max(0.0, deadline - time.monotonic()))
+        for h in handles:
+            if not h.done.is_set():
+                log.error("run %s did not stop within %.0f s of the shutdown; killing its process", h.run_id, timeout)
+                h.proc.kill(f"it did not stop within {timeout:g} s of the service shutting down")
+        for h in handles:
+            h.done.wait(15.0)
 
     def active(self) -> list[RunHandle]:
-        return list(self.handles.values())
+        """Runs still holding their joints."""
+        return [h for h in self.handles.values() if not h.released]
 
     def progress(self, run: dict) -> float:
         h = self.handles.get(run["id"])
@@ -180,102 +191,79 @@ class RunManager:
             return 1.0
         return self.finished_progress.get(run["id"], ((run.get("result") or {}).get("progress") or 0.0))
 
-    # --- the worker -------------------------------------------------------------------------------
-    def _work(self, h: RunHandle) -> None:
-        try:
-            if h.procedure == "calibrate":
-                self._calibrate(h)
-            else:
-                self._motion(h)
-        except Exception as e:  # a bug must not leave a run 'running' or a joint locked
-            log.exception("run %s crashed", h.run_id)
-            try:
-                self.store.finish_run(h.run_id, "failed", error=f"internal error: {e.__class__.__name__}: {e}")
-            except Exception:
-                log.exception("could not record the failure of run %s", h.run_id)
-        finally:
-            self._release(h)
-
-    def _release(self, h: RunHandle) -> None:
+    def host_overruns(self) -> int:
+        """Control periods missed since the server started: ended runs plus the live counts of
+        the active ones (each run's process has its own pacer)."""
         with self._lock:
-            for jid, d in h.drives.items():
-                s = d.last
-                st = getattr(d, "final_state", None) or (s.state.value if s is not None else None)
-                off = st in ("disabled", "quick_stop", "fault")
-                self.last_drive[jid] = {"state": st, "t": s.t if s else None,
-                                        "position": s.position if s else None,
-                                        "velocity": 0.0 if off else (s.velocity if s else None),
-                                        "torque": 0.0 if off else (s.torque if s else None)}
+            return self._overruns_ended + sum(h.overruns for h in self.handles.values())
+
+    # --- messages from the run processes (their reader threads) ------------------------------
+    def _on_message(self, h: RunHandle, msg: dict) -> None:
+        kind = msg["t"]
+        if "progress" in msg:
+            h.progress = msg["progress"]
+        if "overruns" in msg:
+            h.overruns = msg["overruns"]
+        if kind == "status":
+            h.live, h.open_joints = msg["samples"], msg["open"]
+        elif kind == "finishing":
+            self._release(h, msg["last_drive"])
+            h.proc.ack()
+        elif kind == "exit":
+            self._ended(h, msg["exitcode"], msg["killed"])
+
+    def _release(self, h: RunHandle, last_drive: dict) -> None:
+        """The run's drives are closed: its joints are free."""
+        with self._lock:
+            if h.released:
+                return
+            h.released = True
+            h.open_joints = []
+            self.last_drive.update(last_drive)
             for j, rid in list(self.busy.items()):
                 if rid == h.run_id:
                     del self.busy[j]
+        self.estop.remove_target(h.proc)
+
+    def _ended(self, h: RunHandle, exitcode: int | None, killed: str | None) -> None:
+        """The process has exited: end the record if it could not, forget the run."""
+        try:
+            run = self.store.get_run(h.run_id)
+            if run["state"] not in FINAL:
+                self._end_record(h, run, exitcode, killed)
+        except Exception:
+            log.exception("could not record the end of run %s", h.run_id)
+        if not h.released:
+            gone = {j: {"state": None, **{k: (h.live.get(j) or {}).get(k) for k in ("t", "position")},
+                        "velocity": None, "torque": None} for j in h.open_joints}
+            self._release(h, gone)
+        with self._lock:
             self.handles.pop(h.run_id, None)
+            self._overruns_ended += h.overruns
             self.finished_progress[h.run_id] = h.progress
             if len(self.finished_progress) > 1000:
                 self.finished_progress.pop(next(iter(self.finished_progress)))
         h.done.set()
 
-    def _wrap(self, h: RunHandle):
-        def wrap(drives: dict) -> dict:
-            guarded = self.estop.wrap(drives, h.run_id)
-            h.drives.update(guarded)
-            return guarded
-        return wrap
-
-    def _motion(self, h: RunHandle) -> None:
-        store, run_id = self.store, h.run_id
-        store.claim(run_id)
-        emit = Emitter(run_id, [store.emit, h.on_event], first_seq=store.last_seq(run_id) + 1)
-        emit.start(kind=P.KINDS[h.procedure], procedure=h.procedure, joints=h.joints, options=h.options)
-        ctx = P.Context(store=store, bench=self.cfg, transport=self.transport, run_id=run_id,
-                        options=h.options, cancel=h.cancel, emit=emit, wrap_drives=self._wrap(h))
-        state, error, result, rig, trace = "succeeded", None, {"joints": {}}, None, None
-        try:
-            h.cancel.check()
-            rig = P.open_rig(ctx, h.joints)
-            trace = P.attach_trace(ctx, rig)
-            for jid in h.joints:
-                result["joints"][jid] = P.BODIES[h.procedure](ctx, rig, jid)
-        except Cancelled as e:
-            state, error = "cancelled", str(e)
-            emit.event("cancelled", reason=str(e))
-        except (BenchError, DriveError) as e:
-            state, error = "failed", str(e)
-        finally:
-            if rig is not None:
-                rig.trace = None
-                P.close_rig(ctx, rig)
-            if trace is not None:
-                trace.close()            # a cancelled or failed run keeps its partial trace
+    def _end_record(self, h: RunHandle, run: dict, exitcode: int | None, killed: str | None) -> None:
+        if exitcode is not None and exitcode < 0:
+            try:
+                how = signal.Signals(-exitcode).name
+            except ValueError:
+                how = f"signal {-exitcode}"
+            what = f"the run's control process (pid {h.proc.pid}) was killed by {how}"
+        else:
+            what = f"the run's control process (pid {h.proc.pid}) exited with code {exitcode}"
+        what += f" ({'by the service: ' + killed if killed else 'not by the service'}) before ending the run"
         if h.estopped is not None:
-            state, error = "failed", f"emergency stop: {h.estopped}"
-        result["control"] = ctx.control
-        result["progress"] = 1.0 if state == "succeeded" else h.progress
-        store.finish_run(run_id, state, result=result, error=error)
-        emit.stop(state, error=error)
-
-    def _calibrate(self, h: RunHandle) -> None:
-        from procedures.calibration import CalibrationSettings, calibrate
-        st = CalibrationSettings(search=P.search_settings(h.options), tracking=P.tracking_settings(h.options),
-                                 force_simulated=self.transport == "simulated",
-                                 hardware=self.transport == "hardware",
-                                 plots=bool(h.options.get("plots", True)), wrap_drives=self._wrap(h))
-        start = P.pacer_overruns(self.cfg)
-        error = None
-        try:
-            report = calibrate(self.store, h.run_id, on_event=h.on_event, cancel=h.cancel, settings=st)
-        except (BenchError, DriveError) as e:   # e.g. the e-stop refused to open the next rig
-            report, error = None, str(e)
-        run = self.store.get_run(h.run_id)
-        end = P.pacer_overruns(self.cfg)
-        result = dict(run["result"] or {})
-        result["joints"] = P.calibration_summary(report or result.get("report") or {})
-        result["control"] = {"clock": self.cfg.clock, "host_overruns": None if start is None or end is None
-                             else end - start}
-        state = run["state"] if run["state"] in FINAL else "failed"
-        if h.estopped is not None:
-            state, error = "failed", f"emergency stop: {h.estopped}"
-        elif error is not None:
-            state = "failed"
-        result["progress"] = 1.0 if state == "succeeded" else h.progress
-        self.store.finish_run(h.run_id, state, result=result, error=error or run.get("error"))
+            state, error = "failed", f"emergency stop: {h.estopped}; {what}"
+        elif exitcode is not None and exitcode < 0:
+            state, error = "interrupted", what
+        else:
+            state, error = "failed", what
+        result = dict(run.get("result") or {})          # a calibration's plan stays resumable
+        result.update(progress=h.progress, control={"clock": self.cfg.clock, "host_overruns": h.overruns})
+        for child in self.store.list_runs(parent_id=h.run_id, state="running", limit=1000):
+            self.store.finish_run(child["id"], "interrupted", error=what)
+        self.store.finish_run(h.run_id, state, result=result, error=error)
+        Emitter(h.run_id, [self.store.emit], first_seq=self.store.last_seq(h.run_id) + 1).stop(state, error=error)

@@ -11,6 +11,11 @@ back on after an e-stop; its rig sees a ``DriveError`` and stops.
 short-lived thread per drive: "at once", and one slow bus cannot delay the others).  A
 stop does not wait for a cycle that is stuck: after ``LOCK_WAIT`` it stops without the lock,
 because safety beats protocol hygiene.  ``reset`` clears the latch (admin only).
+
+The server's runs execute in control processes (``api.run_process``): each one has its own
+``EStop`` and guarded drives, and is registered with the server's ``EStop`` as a *target*.
+A trigger tells every target at once over its e-stop pipe (before stopping any local drive)
+and collects each process's drive reports; a process that does not answer in time is killed.
 """
 from __future__ import annotations
 
@@ -23,6 +28,7 @@ from drivers.protocols import DriveFault, DriveState, Sample
 log = logging.getLogger(__name__)
 LOCK_WAIT = 0.05        # s: longest an e-stop waits for a control cycle in flight
 STOP_JOIN = 2.0         # s: longest the e-stop handler waits for the stop threads
+REMOTE_WAIT = 0.5       # s: longest it waits for a run process's reply before killing it
 
 TORQUE_OFF_STATES = (DriveState.DISABLED, DriveState.QUICK_STOP, DriveState.FAULT)
 
@@ -111,23 +117,27 @@ class EStop:
         self.triggered_at: float | None = None
         self.last_result: list[dict] = []
         self._drives: list[GuardedDrive] = []
+        self._targets: list = []       # run processes (api.run_process.RunProcess)
         self._lock = threading.Lock()
+        self._trigger_lock = threading.Lock()   # one trigger at a time reads the targets' replies
         self._listeners: list = []     # called with the reason after a trigger (runs cancel)
 
     # --- drives ------------------------------------------------------------------------------
     def wrap(self, drives: dict, run_id: str) -> dict:
-        """Guard and register freshly opened drives; refuse (closing them) while latched."""
-        if self.active:
-            for d in drives.values():
-                try:
-                    d.close()
-                except Exception:
-                    pass
-            raise EStopActive("emergency stop active; reset it before starting motion")
+        """Guard and register freshly opened drives; refuse (closing them) while latched.
+        Checked under the lock a trigger snapshots the drives with: a drive is either
+        stopped by a trigger or refused after it, never missed."""
         guarded = {jid: GuardedDrive(d, self, run_id) for jid, d in drives.items()}
         with self._lock:
-            self._drives.extend(guarded.values())
-        return guarded
+            if not self.active:
+                self._drives.extend(guarded.values())
+                return guarded
+        for d in drives.values():
+            try:
+                d.close()
+            except Exception:
+                pass
+        raise EStopActive("emergency stop active; reset it before starting motion")
 
     def unregister(self, drive: GuardedDrive) -> None:
         with self._lock:
@@ -141,23 +151,48 @@ class EStop:
     def on_trigger(self, callback) -> None:
         self._listeners.append(callback)
 
+    def add_target(self, target, start) -> None:
+        """Register a run process and start it (``start()``), under the lock a trigger
+        snapshots with; refused while latched.  The target needs ``estop_send(reason)`` and
+        ``estop_collect(deadline) -> list of drive reports``."""
+        with self._lock:
+            if self.active:
+                raise EStopActive(f"e-stop is active ({self.reason}); an admin must reset it")
+            start()
+            self._targets.append(target)
+
+    def remove_target(self, target) -> None:
+        with self._lock:
+            if target in self._targets:
+                self._targets.remove(target)
+
     # --- the stop -----------------------------------------------------------------------------
     def trigger(self, reason: str) -> dict:
-        """Latch, quick-stop every open drive in parallel, then read back each drive's state."""
-        t0 = time.perf_counter()
-        self.active = True            # first: no cycle may command torque from now on
-        self.reason = reason
-        self.triggered_at = time.time()
-        drives = self.open_drives()
-        threads = [threading.Thread(target=d.quick_stop, name=f"estop-{d.name}", daemon=True)
-                   for d in drives]
-        for t in threads:
-            t.start()
-        deadline = time.monotonic() + STOP_JOIN
-        for t in threads:
-            t.join(max(0.0, deadline - time.monotonic()))
-        stop_latency = time.perf_counter() - t0
-        result = [self._report(d) for d in drives]
+        """Latch, tell every run process, quick-stop every local drive in parallel, then read
+        back each drive's state (local ones here, remote ones in their processes' replies)."""
+        with self._trigger_lock:
+            t0 = time.perf_counter()
+            self.active = True            # first: no cycle may command torque from now on
+            self.reason = reason
+            self.triggered_at = time.time()
+            with self._lock:
+                drives, targets = list(self._drives), list(self._targets)
+            for tg in targets:            # the processes start stopping while we stop ours
+                try:
+                    tg.estop_send(reason)
+                except Exception:         # a dead process: estop_collect reports it
+                    log.warning("e-stop: could not reach %r", tg, exc_info=True)
+            threads = [threading.Thread(target=d.quick_stop, name=f"estop-{d.name}", daemon=True)
+                       for d in drives]
+            for t in threads:
+                t.start()
+            deadline = time.monotonic() + STOP_JOIN
+            for t in threads:
+                t.join(max(0.0, deadline - time.monotonic()))
+            remote_deadline = time.monotonic() + REMOTE_WAIT
+            remote = [r for tg in targets for r in tg.estop_collect(remote_deadline)]
+            stop_latency = time.perf_counter() - t0
+            result = [self._report(d) for d in drives] + remote
         for cb in list(self._listeners):
             try:
                 cb(reason)
@@ -177,9 +212,13 @@ class EStop:
             finally:
                 if got:
                     d.lock.release()
-        except Exception as e:  # a drive that cannot answer is reported, never hidden
-            return {"joint": d.name, "run_id": d.run_id, "state": None, "torque_off": None,
-                    "error": f"{e.__class__.__name__}: {e}"}
+        except Exception as e:
+            if d.final_state is None:   # a drive that cannot answer is reported, never hidden
+                return {"joint": d.name, "run_id": d.run_id, "state": None, "torque_off": None,
+                        "error": f"{e.__class__.__name__}: {e}"}
+            # its run was closing it (no lock for us after LOCK_WAIT): close() read the
+            # drive's own state just before taking the bus down
+            state = d.final_state
         return {"joint": d.name, "run_id": d.run_id, "state": state,
                 "torque_off": state in {s.value for s in TORQUE_OFF_STATES}, "error": None}
 
