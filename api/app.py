@@ -4,10 +4,12 @@
 
 Startup opens the run store (SQLite WAL in the data directory), marks runs a dead server
 left behind as interrupted, loads the API keys (generating the first admin key), and the
-bench configuration.  Shutdown cancels active runs (controlled ramp-down) and waits for them.
+bench configuration, and starts the forkserver that runs' control processes come from.
+Shutdown cancels active runs (controlled ramp-down), waits for them, then kills what is left.
 """
 from __future__ import annotations
 
+import gc
 import logging
 import os
 from contextlib import asynccontextmanager
@@ -17,7 +19,7 @@ from pathlib import Path
 from fastapi import FastAPI
 
 import bench
-from api import errors
+from api import cpus, errors
 from api.auth import ENV_KEY, KeyStore
 from api.deps import Service
 from api.runs import RunManager
@@ -37,6 +39,9 @@ class ServiceConfig:
     transport: str = "virtual"       # emulated CANopen/serial drives, or in-process simulated plugs
     api_key: str | None = None       # accepted as an admin key (default: $BENCH_API_KEY)
     shutdown_timeout: float = 20.0
+    # this process (the server) on the last CPU, run control processes on the others
+    # (api.cpus); `bench serve` does, a server embedded in another program (tests) does not
+    pin_cpus: bool = False
 
 
 def build_service(conf: ServiceConfig) -> tuple[Service, Path | None]:
@@ -51,7 +56,11 @@ def build_service(conf: ServiceConfig) -> tuple[Service, Path | None]:
     keys = KeyStore(data, env_key=conf.api_key if conf.api_key is not None else os.environ.get(ENV_KEY) or None)
     admin_file = keys.ensure_admin()
     estop = EStop()
-    runs = RunManager(store, str(conf.bench), cfg, conf.transport, estop)
+    placement = cpus.split() if conf.pin_cpus else None
+    if placement is not None:
+        cpus.pin(placement[0])
+    runs = RunManager(store, str(conf.bench), cfg, conf.transport, estop,
+                      control_cpus=placement[1] if placement is not None else None)
     return Service(cfg=cfg, bench_spec=str(conf.bench), transport=conf.transport, data_dir=data, store=store,
                    keys=keys, estop=estop, runs=runs), admin_file
 
@@ -63,6 +72,11 @@ def create_app(conf: ServiceConfig | None = None, service: Service | None = None
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         app.state.closing = False
+        # the imported modules (numpy, scipy, numba, FastAPI: ~200k objects) never become
+        # garbage: frozen once, a full collection triggered by request allocations does not
+        # rescan them, which would stall every request in flight for ~100 ms
+        gc.collect()
+        gc.freeze()
         yield
         app.state.closing = True          # SSE streams end at their next poll
         svc.runs.shutdown(conf.shutdown_timeout)

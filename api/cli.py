@@ -28,6 +28,8 @@ def register(app: typer.Typer) -> None:
                                       help="virtual (emulated CANopen/serial drives), simulated (in-process plugs) "
                                            "or hardware (the drives the bench file names)"),
         log_level: str = typer.Option("info", "--log-level", help="uvicorn log level"),
+        pin_cpus: bool = typer.Option(True, "--pin-cpus/--no-pin-cpus",
+                                      help="server on the last CPU, run control processes on the others"),
     ) -> None:
         """The REST service: runs, live events, compensation, e-stop (FastAPI on uvicorn)."""
         from api.app import ServiceConfig, build_service, create_app
@@ -36,7 +38,7 @@ def register(app: typer.Typer) -> None:
         if not 0 < port < 65536:
             _fail(f"--port must be in 1..65535, got {port}")
         try:
-            conf = ServiceConfig(bench=bench, data_dir=data, transport=transport)
+            conf = ServiceConfig(bench=bench, data_dir=data, transport=transport, pin_cpus=pin_cpus)
             svc, admin_file = build_service(conf)
         except BenchError as e:
             _fail(str(e))
@@ -47,6 +49,8 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"friction-bench API on http://{shown}:{port}  (bench {svc.cfg.name}, {transport} drives, "
                    f"data {data})")
         typer.echo(f"  OpenAPI docs: http://{shown}:{port}/docs")
+        if svc.runs.control_cpus:
+            typer.echo(f"  CPUs: run control processes on {sorted(svc.runs.control_cpus)}, the server on the rest")
         if admin_file is not None:
             typer.echo(f"  admin key: in {admin_file.resolve()} (mode 0600)")
         else:

@@ -13,7 +13,7 @@ and finishes the run record.  Its pipes to the server:
   newest sample per joint, open drives, host overruns), ``"finishing"`` once the drives are
   closed (the server releases the joints and acks before the record says the run ended),
   ``"done"`` after it.
-* ``estop`` (both ways, its own listener thread): ``("estop", reason)`` latches this
+* ``estop`` (both ways, its own listener thread): ``("estop", seq, reason)`` latches this
   process's ``EStop`` (``GuardedDrive`` refuses cycle/enable from then on) and quick-stops
   every open drive in parallel; the reply is each drive's state report.
 
@@ -44,6 +44,11 @@ def main(spec: dict, ctrl, status, estop_conn) -> None:
     # Ctrl-C on `bench serve` reaches the whole process group: the server cancels its runs
     # in order (ramp-down) instead of every control loop dying mid-period
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if spec.get("cpus"):     # first, while this is the only thread: the others inherit it
+        try:
+            os.sched_setaffinity(0, spec["cpus"])
+        except (AttributeError, OSError):
+            pass
     sys.setswitchinterval(SWITCH_INTERVAL)
     logging.basicConfig(level=logging.WARNING, format=f"%(asctime)s run {spec['run_id']} %(levelname)s: %(message)s")
     child = ChildRun(spec, ctrl, status, estop_conn)
@@ -89,13 +94,13 @@ class ChildRun:
     def _estop_listener(self, conn) -> None:
         while True:
             try:
-                kind, reason = conn.recv()
+                kind, seq, reason = conn.recv()
             except (EOFError, OSError):
                 return
             if kind == "estop":
                 res = self.estop.trigger(reason)
                 try:
-                    conn.send({"drives": res["drives"], "stop_latency_ms": res["stop_latency_ms"]})
+                    conn.send({"seq": seq, "drives": res["drives"], "stop_latency_ms": res["stop_latency_ms"]})
                 except OSError:
                     return
 

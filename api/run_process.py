@@ -72,6 +72,7 @@ class RunProcess:
         self._estop, self._estop_child = ctx.Pipe()                  # both ways
         self._ctrl_lock = threading.Lock()
         self._estop_lock = threading.Lock()      # the reader closes the pipe when the process ends
+        self._estop_seq = 0
         self.proc = ctx.Process(target=run_child.main, name=f"run-{self.run_id}", daemon=True,
                                 args=(spec, self._ctrl_child, self._status_child, self._estop_child))
         self.reader: threading.Thread | None = None
@@ -114,15 +115,21 @@ class RunProcess:
     # --- e-stop (api.safety.EStop.trigger) ----------------------------------------------------------
     def estop_send(self, reason: str) -> None:
         with self._estop_lock:
-            self._estop.send(("estop", reason))
+            self._estop_seq += 1
+            self._estop.send(("estop", self._estop_seq, reason))
 
     def estop_collect(self, deadline: float) -> list[dict]:
         """The process's drive reports, or (no answer by ``deadline``: killed) one report per
-        joint it held, saying so."""
+        joint it held, saying so.  A process not started yet has no drive open: it will read
+        the e-stop, waiting in its pipe, before anything else (its listener starts first)."""
+        if self.pid is None:
+            return []
         try:
             with self._estop_lock:
-                if self._estop.poll(max(0.0, deadline - time.monotonic())):
-                    return list(self._estop.recv()["drives"])
+                while self._estop.poll(max(0.0, deadline - time.monotonic())):
+                    reply = self._estop.recv()
+                    if reply["seq"] == self._estop_seq:    # not a late answer to an earlier one
+                        return list(reply["drives"])
             problem = "did not answer the e-stop in time; killed (SIGKILL)"
             self.kill("it did not answer the e-stop")
         except (EOFError, OSError):

@@ -67,8 +67,10 @@ class RunHandle:
 
 
 class RunManager:
-    def __init__(self, store: Store, bench_spec: str, cfg: BenchConfig, transport: str, estop: EStop):
+    def __init__(self, store: Store, bench_spec: str, cfg: BenchConfig, transport: str, estop: EStop,
+                 control_cpus: set[int] | None = None):
         self.store = store
+        self.control_cpus = control_cpus            # CPUs of the run processes (api.cpus), None: any
         self.bench_spec = bench_spec
         self.cfg = cfg
         self.transport = transport
@@ -119,20 +121,27 @@ class RunManager:
             h = RunHandle(run_id, procedure, ids, dict(options), list(held))
             spec = {"run_id": run_id, "procedure": procedure, "joints": ids, "held": list(held),
                     "options": dict(options), "stages_total": total, "cfg": self.cfg,
-                    "transport": self.transport, "data_dir": str(self.store.dir.resolve())}
+                    "transport": self.transport, "data_dir": str(self.store.dir.resolve()),
+                    "cpus": sorted(self.control_cpus) if self.control_cpus else None}
             h.proc = RunProcess(spec, lambda msg: self._on_message(h, msg))
-            try:       # started under the e-stop's lock: a trigger either reaches it or refused it
-                self.estop.add_target(h.proc, start=h.proc.start)
+            try:       # an e-stop from now on reaches the process (its pipe exists already)
+                self.estop.add_target(h.proc)
             except EStopActive as e:
                 self.store.finish_run(run_id, "failed", error=str(e))
                 raise Conflict(str(e)) from None
-            except Exception as e:
-                log.exception("run %s: cannot start its control process", run_id)
-                self.store.finish_run(run_id, "failed", error=f"cannot start the run's control process: {e}")
-                raise
             for j in held:
                 self.busy[j] = run_id
             self.handles[run_id] = h
+        try:        # outside the lock: the first start waits for the forkserver's imports
+            h.proc.start()
+        except Exception as e:
+            log.exception("run %s: cannot start its control process", run_id)
+            self._release(h, {})
+            with self._lock:
+                self.handles.pop(run_id, None)
+            self.store.finish_run(run_id, "failed", error=f"cannot start the run's control process: {e}")
+            h.done.set()
+            raise
         return h
 
     def _joints_for(self, procedure: str, joints: list[str] | None) -> list[str]:
@@ -227,16 +236,16 @@ class RunManager:
 
     def _ended(self, h: RunHandle, exitcode: int | None, killed: str | None) -> None:
         """The process has exited: end the record if it could not, forget the run."""
+        if not h.released:      # first, as in a normal end: whoever sees the run ended may go on
+            gone = {j: {"state": None, **{k: (h.live.get(j) or {}).get(k) for k in ("t", "position")},
+                        "velocity": None, "torque": None} for j in h.open_joints}
+            self._release(h, gone)
         try:
             run = self.store.get_run(h.run_id)
             if run["state"] not in FINAL:
                 self._end_record(h, run, exitcode, killed)
         except Exception:
             log.exception("could not record the end of run %s", h.run_id)
-        if not h.released:
-            gone = {j: {"state": None, **{k: (h.live.get(j) or {}).get(k) for k in ("t", "position")},
-                        "velocity": None, "torque": None} for j in h.open_joints}
-            self._release(h, gone)
         with self._lock:
             self.handles.pop(h.run_id, None)
             self._overruns_ended += h.overruns

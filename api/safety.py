@@ -151,14 +151,13 @@ class EStop:
     def on_trigger(self, callback) -> None:
         self._listeners.append(callback)
 
-    def add_target(self, target, start) -> None:
-        """Register a run process and start it (``start()``), under the lock a trigger
-        snapshots with; refused while latched.  The target needs ``estop_send(reason)`` and
-        ``estop_collect(deadline) -> list of drive reports``."""
+    def add_target(self, target) -> None:
+        """Register a run process (before it starts), under the lock a trigger snapshots with:
+        it is either reached by a trigger or refused (while latched).  The target needs
+        ``estop_send(reason)`` and ``estop_collect(deadline) -> list of drive reports``."""
         with self._lock:
             if self.active:
                 raise EStopActive(f"e-stop is active ({self.reason}); an admin must reset it")
-            start()
             self._targets.append(target)
 
     def remove_target(self, target) -> None:

@@ -11,8 +11,9 @@ from contextlib import contextmanager
 
 import uvicorn
 
-# The GIL is handed between threads every 5 ms by default: longer than a 1 ms control period.
-# A shorter interval lets a run's control thread get back in while handlers are busy.
+# The GIL is handed between threads every 5 ms by default.  The control loops run in their
+# own processes now (api.run_child sets the same interval there); in the server a shorter
+# interval keeps the e-stop handler and the runs' status relays prompt while handlers are busy.
 SWITCH_INTERVAL = float(os.environ.get("BENCH_SWITCH_INTERVAL", "0.0005"))   # s; a tuning knob
 
 
