@@ -152,31 +152,34 @@ async def run_events(request: Request, run_id: str,
 
 
 async def _stream(request: Request, svc: Service, run_id: str, after: int, sample_hz: float):
-    """Documents from the store (the control loop only writes them), the progress when it
-    changes, and at most ``sample_hz`` live samples per second read from the drives' wrappers."""
+    """Documents from the store (the run's process writes them), the progress when it
+    changes, and at most ``sample_hz`` live samples per second relayed by the run's process."""
     last, progress, next_sample, state = after, None, 0.0, None
     period = min(SSE_POLL, 1.0 / sample_hz) if sample_hz > 0 else SSE_POLL
     ending = False
+    begun = after >= 0      # the run's start document has been sent (or the client has it)
     while not getattr(request.app.state, "closing", False):
         docs = await anyio.to_thread.run_sync(svc.store.events, run_id, last)
         for d in docs:
             last = d["seq"]
             name = d["doc"] if d["doc"] in ("start", "stop") else (d["name"] or d["doc"])
+            begun = True
             yield _sse(name, d, d["seq"])
         if ending:
             yield _sse("end", {"run_id": run_id, "state": state})
             return
         h = svc.runs.handles.get(run_id)
         if h is not None:
-            if h.progress != progress:
-                progress = h.progress
-                yield _sse("progress", {"run_id": run_id, "progress": progress})
-            now = time.monotonic()
-            if sample_hz > 0 and now >= next_sample:
-                next_sample = now + 1.0 / sample_hz
-                samples = h.samples()
-                if samples:
-                    yield _sse("sample", {"run_id": run_id, "samples": samples})
+            if begun:           # before "start" its process is still starting: nothing to show
+                if h.progress != progress:
+                    progress = h.progress
+                    yield _sse("progress", {"run_id": run_id, "progress": progress})
+                now = time.monotonic()
+                if sample_hz > 0 and now >= next_sample:
+                    next_sample = now + 1.0 / sample_hz
+                    samples = h.samples()
+                    if samples:
+                        yield _sse("sample", {"run_id": run_id, "samples": samples})
         else:
             run = await anyio.to_thread.run_sync(svc.store.get_run, run_id)
             state = run["state"]
