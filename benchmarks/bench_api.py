@@ -2,7 +2,7 @@
 
 Not a timed test: prints a markdown table.  Loopback only; bounded request counts and time.
 
-    python benchmarks/bench_api.py [--clients 50] [--poll 0.2] [--seconds 5] [--rounds 3] [--estops 5]
+    python benchmarks/bench_api.py [--clients 50] [--poll 0.2] [--seconds 5] [--rounds 6] [--estops 5]
                                    [--client-cpus server|any] [--no-pin]
 
 1. ``bench serve`` in a child process with macro4 switched to the realtime clock, as in
@@ -26,7 +26,9 @@ Not a timed test: prints a markdown table.  Loopback only; bounded request count
 The clients run in this process and stand in for technicians' browsers on other machines:
 ``--client-cpus server`` (default) keeps them on the server's CPU, so what the control loop
 sees under load is what the server costs it; ``any`` lets them take the control CPU too
-(``--client-nice`` lowers their priority).  On a shared machine read the printed load first.
+(``--client-nice`` lowers their priority).  Their process freezes its heap: one process's
+collector pauses would bunch the requests of all the clients.  On a shared machine read the
+printed load first.
 """
 from __future__ import annotations
 
@@ -139,7 +141,7 @@ def main() -> None:
     ap.add_argument("--clients", type=int, default=50)
     ap.add_argument("--poll", type=float, default=0.2, help="s between one client's polls")
     ap.add_argument("--seconds", type=float, default=5.0, help="length of one quiet and of one loaded phase")
-    ap.add_argument("--rounds", type=int, default=3, help="quiet/loaded phase pairs")
+    ap.add_argument("--rounds", type=int, default=6, help="quiet/loaded phase pairs")
     ap.add_argument("--estops", type=int, default=5)
     ap.add_argument("--client-nice", type=int, default=0, help="niceness of this (client) process")
     ap.add_argument("--client-cpus", choices=("server", "any"), default="server",
@@ -158,7 +160,8 @@ def main() -> None:
             os.nice(args.client_nice)
         if args.client_cpus == "server" and placement is not None:
             cpus.pin(placement[0])
-        # the clients' own garbage collector pauses are not the server's latency
+        # the clients' garbage collector pauses would bunch their requests (and add to the
+        # latencies they measure): browsers on other machines do neither
         gc.collect()
         gc.freeze()
         url = f"http://127.0.0.1:{port}"
