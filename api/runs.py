@@ -264,8 +264,11 @@ class RunManager:
         else:
             what = f"the run's control process (pid {h.proc.pid}) exited with code {exitcode}"
         what += f" ({'by the service: ' + killed if killed else 'not by the service'}) before ending the run"
-        if h.estopped is not None:
-            state, error = "failed", f"emergency stop: {h.estopped}; {what}"
+        # latched now: the run was stopped by it (its process may be the one the e-stop
+        # killed, before the trigger got to mark the runs)
+        estopped = h.estopped or (self.estop.reason if self.estop.active else None)
+        if estopped is not None:
+            state, error = "failed", f"emergency stop: {estopped}; {what}"
         elif exitcode is not None and exitcode < 0:
             state, error = "interrupted", what
         else:
