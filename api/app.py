@@ -26,6 +26,7 @@ from api.runs import RunManager
 from api.safety import EStop
 from bench.errors import InputError
 from bench.store import Store
+from drivers.realtime import MAX_PRIORITY
 from procedures.config import load_bench
 
 log = logging.getLogger("api")
@@ -42,11 +43,16 @@ class ServiceConfig:
     # this process (the server) on the last CPU, run control processes on the others
     # (api.cpus); `bench serve` does, a server embedded in another program (tests) does not
     pin_cpus: bool = False
+    # run control processes (and the emulated drives they start) at this SCHED_FIFO priority;
+    # 0: normal scheduling (drivers.realtime)
+    rt_priority: int = 0
 
 
 def build_service(conf: ServiceConfig) -> tuple[Service, Path | None]:
     if conf.transport not in TRANSPORTS:
         raise InputError(f"transport must be one of {', '.join(TRANSPORTS)}, got {conf.transport!r}")
+    if not 0 <= conf.rt_priority <= MAX_PRIORITY:
+        raise InputError(f"rt_priority must be 0 (off) to {MAX_PRIORITY}, got {conf.rt_priority}")
     cfg = load_bench(conf.bench)
     data = Path(conf.data_dir)
     try:
@@ -60,7 +66,8 @@ def build_service(conf: ServiceConfig) -> tuple[Service, Path | None]:
     if placement is not None:
         cpus.pin(placement[0])
     runs = RunManager(store, str(conf.bench), cfg, conf.transport, estop,
-                      control_cpus=placement[1] if placement is not None else None)
+                      control_cpus=placement[1] if placement is not None else None,
+                      rt_priority=conf.rt_priority)
     return Service(cfg=cfg, bench_spec=str(conf.bench), transport=conf.transport, data_dir=data, store=store,
                    keys=keys, estop=estop, runs=runs), admin_file
 

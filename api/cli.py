@@ -30,6 +30,9 @@ def register(app: typer.Typer) -> None:
         log_level: str = typer.Option("info", "--log-level", help="uvicorn log level"),
         pin_cpus: bool = typer.Option(True, "--pin-cpus/--no-pin-cpus",
                                       help="server on the last CPU, run control processes on the others"),
+        rt_priority: int = typer.Option(0, "--rt-priority",
+                                        help="SCHED_FIFO priority of real-time benches' run control processes, "
+                                             "1-98 (needs root, CAP_SYS_NICE or an rtprio limit); 0: normal"),
     ) -> None:
         """The REST service: runs, live events, compensation, e-stop (FastAPI on uvicorn)."""
         from api.app import ServiceConfig, build_service, create_app
@@ -38,7 +41,8 @@ def register(app: typer.Typer) -> None:
         if not 0 < port < 65536:
             _fail(f"--port must be in 1..65535, got {port}")
         try:
-            conf = ServiceConfig(bench=bench, data_dir=data, transport=transport, pin_cpus=pin_cpus)
+            conf = ServiceConfig(bench=bench, data_dir=data, transport=transport, pin_cpus=pin_cpus,
+                                 rt_priority=rt_priority)
             svc, admin_file = build_service(conf)
         except BenchError as e:
             _fail(str(e))
@@ -51,6 +55,10 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"  OpenAPI docs: http://{shown}:{port}/docs")
         if svc.runs.control_cpus:
             typer.echo(f"  CPUs: run control processes on {sorted(svc.runs.control_cpus)}, the server on the rest")
+        if rt_priority:
+            note = "" if svc.cfg.clock == "realtime" else f" (not this {svc.cfg.clock} bench: it never waits for a clock)"
+            typer.echo(f"  real-time runs' control processes at SCHED_FIFO priority {rt_priority}{note}; "
+                       f"where not permitted a run logs why and runs at normal priority")
         if admin_file is not None:
             typer.echo(f"  admin key: in {admin_file.resolve()} (mode 0600)")
         else:

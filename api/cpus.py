@@ -9,10 +9,9 @@ control processes get the rest; affinity needs no privilege.  Linux only (elsewh
 """
 from __future__ import annotations
 
-import logging
 import os
 
-log = logging.getLogger(__name__)
+from drivers.realtime import pin  # noqa: F401  (re-exported: the server pins itself)
 
 
 def split() -> tuple[set[int], set[int]] | None:
@@ -25,17 +24,3 @@ def split() -> tuple[set[int], set[int]] | None:
         return None
     server = {max(allowed)}
     return server, allowed - server
-
-
-def pin(cpus: set[int]) -> None:
-    """Confine every thread of this process to ``cpus`` (Linux sets affinity per thread;
-    threads started later inherit it from their creator)."""
-    try:
-        tids = [int(t) for t in os.listdir("/proc/self/task")]
-    except OSError:
-        tids = [0]
-    for tid in tids:
-        try:
-            os.sched_setaffinity(tid, cpus)
-        except (AttributeError, OSError) as e:      # a thread that just ended, or no support
-            log.debug("affinity of thread %s: %s", tid, e)

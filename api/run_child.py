@@ -51,6 +51,13 @@ def main(spec: dict, ctrl, status, estop_conn) -> None:
             pass
     sys.setswitchinterval(SWITCH_INTERVAL)
     logging.basicConfig(level=logging.WARNING, format=f"%(asctime)s run {spec['run_id']} %(levelname)s: %(message)s")
+    # likewise inherited by the threads started later.  Lock-step runs never wait for a
+    # clock: at a real-time priority they would only take CPU from everything else
+    if spec.get("rt_priority") and spec["cfg"].clock == "realtime":
+        from drivers.realtime import set_priority
+        why_not = set_priority(int(spec["rt_priority"]))
+        if why_not:
+            log.warning(why_not)
     child = ChildRun(spec, ctrl, status, estop_conn)
     # a terminate() (the multiprocessing atexit of a server that never shut down) is a cancel
     signal.signal(signal.SIGTERM, lambda *_: child.cancel.set("the run's control process was terminated"))
@@ -252,7 +259,7 @@ class ChildRun:
             if trace is not None:
                 trace.close()            # a cancelled or failed run keeps its partial trace
         state, error = self._final_state(state, error)
-        result["control"] = ctx.control
+        result["control"] = {**ctx.control, "scheduling": _scheduling()}
         result["progress"] = 1.0 if state == "succeeded" else self.progress
         self._finish(state, result, error, emit)
 
@@ -278,12 +285,18 @@ class ChildRun:
         result = dict(held_result or self.store.get_run(self.run_id)["result"] or {})
         result["joints"] = P.calibration_summary(report or result.get("report") or {})
         result["control"] = {"clock": self.cfg.clock, "host_overruns": None if start is None or end is None
-                             else end - start}
+                             else end - start, "scheduling": _scheduling()}
         state = held_state if held_state in FINAL and error is None else "failed"
         state, error = self._final_state(state, error or held_error)
         result["progress"] = 1.0 if state == "succeeded" else self.progress
         self.store.hold = None
         self._finish(state, result, error)
+
+
+def _scheduling() -> dict:
+    """This control process's policy, priority and CPUs, kept in the run's result."""
+    from drivers.realtime import describe
+    return describe()
 
 
 def _store(data_dir: str):

@@ -68,9 +68,10 @@ class RunHandle:
 
 class RunManager:
     def __init__(self, store: Store, bench_spec: str, cfg: BenchConfig, transport: str, estop: EStop,
-                 control_cpus: set[int] | None = None):
+                 control_cpus: set[int] | None = None, rt_priority: int = 0):
         self.store = store
         self.control_cpus = control_cpus            # CPUs of the run processes (api.cpus), None: any
+        self.rt_priority = rt_priority              # their SCHED_FIFO priority, 0: normal
         self.bench_spec = bench_spec
         self.cfg = cfg
         self.transport = transport
@@ -122,7 +123,8 @@ class RunManager:
             spec = {"run_id": run_id, "procedure": procedure, "joints": ids, "held": list(held),
                     "options": dict(options), "stages_total": total, "cfg": self.cfg,
                     "transport": self.transport, "data_dir": str(self.store.dir.resolve()),
-                    "cpus": sorted(self.control_cpus) if self.control_cpus else None}
+                    "cpus": sorted(self.control_cpus) if self.control_cpus else None,
+                    "rt_priority": self.rt_priority}
             h.proc = RunProcess(spec, lambda msg: self._on_message(h, msg))
             try:       # an e-stop from now on reaches the process (its pipe exists already)
                 self.estop.add_target(h.proc)

@@ -1,29 +1,40 @@
 """Drive transport benchmark (a script, not a test): prints markdown tables.
 
-    python benchmarks/bench_drives.py [--seconds 3] [--quick]
+    python benchmarks/bench_drives.py [--seconds 3] [--quick] [--only TEXT] [--rt-priority 40]
 
 Real time, 1 kHz: 1, 2 and 4 joints over CANopen (CiA 402, one SYNC per round) and over ptys
-(ODrive ASCII, one pipelined exchange per joint per round).  Emulators either share this
-process with the host ("in-process": python-can ``virtual`` bus, pty responders on threads,
-one GIL for host and drives) or run in a child process as real drives would ("child
-process": a socketcand server on 127.0.0.1, ptys).  A round is one ``cycle`` per joint.
-"period" is the gap between consecutive period starts, i.e. SYNC to SYNC over CANopen (the
-instant every drive samples and applies its torque) and command to command over serial;
-"latency" runs from a period's start to the round's last sample.  "delivered" = rounds
-completed / periods the wall clock allowed; every boundary the host missed is counted in
-"host overruns" (the pacer skips it, never bursts) and every period a drive had to catch up
-in "drive overruns".  CPU is this process's CPU time over wall time, in % of one core.
-Lock-step: 4 joints over CANopen (virtual bus), simulated seconds per wall second, at
-several control periods, and the host + emulator CPU per round.  A round moves 13 CAN frames
-(4 RPDOs, SYNC, 8 TPDOs) through python-can and python-canopen twice (host and drive side).
+(ODrive ASCII, one pipelined exchange per joint per round), in three placements, side by side:
+
+* "in-process": the emulators share this process with the host (python-can ``virtual`` bus,
+  pty responders on threads, one GIL for host and drives), normal scheduling;
+* "child": the emulators run in a child process as real drives would (a socketcand server on
+  127.0.0.1, ptys), pinned to their own CPU and the host to the others, normal scheduling;
+* "child, FIFO": the same with every thread of both processes at SCHED_FIFO ``--rt-priority``
+  (``drivers.realtime``; rows are skipped with a note where that is not permitted).
+
+A round is one ``cycle`` per joint.  "period" is the gap between consecutive period starts,
+i.e. SYNC to SYNC over CANopen (the instant every drive samples and applies its torque) and
+command to command over serial; "latency" runs from a period's start to the round's last
+sample.  "delivered" = rounds completed / periods the wall clock allowed; every boundary the
+host missed is counted in "host overruns" (the pacer skips it, never bursts) and every
+period a drive had to catch up in "drive overruns".  CPU is this process's CPU time over
+wall time, in % of one core.
+
+Lock-step: 4 joints over CANopen (virtual bus), simulated seconds per wall second, at several
+control periods, with the process free to use every CPU and pinned to one.  A round moves 13
+CAN frames (4 RPDOs, SYNC, 8 TPDOs) through python-can and python-canopen twice (host and
+drive side); every frame wakes another thread of the same process, and a GIL hand-off between
+threads on two cores costs about three times one on the same core.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
 
+from drivers import realtime
 from drivers.pacing import Pacer
 from drivers.registry import open_drive
 from virtual_drives.launch import VirtualBench
@@ -40,10 +51,25 @@ def torque(j: dict, t: float) -> float:
     return 0.3 * j["torque_limit"] * 0.05 * np.sin(2 * np.pi * 2.0 * t)
 
 
+class NotPermitted(Exception):
+    pass
+
+
 def realtime_run(n: int, transport: str, seconds: float, dt: float = 1e-3,
-                 process: str = "inproc") -> dict:
+                 process: str = "inproc", priority: int = 0) -> dict:
+    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
     with VirtualBench(joints(n, transport), clock="realtime", control_period=dt,
                       process=process) as vb:
+        if process == "subprocess" and len(cpus) >= 2:
+            # the drives are other hardware: give the emulator process its own CPU
+            realtime.pin({cpus[-1]}, vb._child.pid)
+            realtime.pin(set(cpus[:-1]))
+        if priority:
+            why_not = (realtime.set_priority(priority, vb._child.pid)
+                       or realtime.set_priority(priority))
+            if why_not:
+                realtime.set_priority(0, vb._child.pid)
+                raise NotPermitted(why_not)
         drives = [open_drive(j) for j in vb.joints]
         try:
             for d in drives:
@@ -69,6 +95,9 @@ def realtime_run(n: int, transport: str, seconds: float, dt: float = 1e-3,
         finally:
             for d in drives:
                 d.close()
+            realtime.set_priority(0)
+            if cpus:
+                realtime.pin(set(cpus))
     ticks, ends = np.array(ticks[:len(ends)]), np.array(ends)
     period = np.diff(ticks) * 1e3              # SYNC-to-SYNC (CANopen), command-to-command
     latency = (ends - ticks) * 1e3             # period start to the round's last sample
@@ -80,7 +109,10 @@ def realtime_run(n: int, transport: str, seconds: float, dt: float = 1e-3,
             "drive_overruns": drive_overruns, "cpu": 100 * cpu / wall}
 
 
-def lockstep_run(n: int, transport: str, dt: float, rounds: int) -> dict:
+def lockstep_run(n: int, transport: str, dt: float, rounds: int, one_cpu: bool = False) -> dict:
+    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    if one_cpu and cpus:
+        realtime.pin({cpus[0]})        # before the bus threads start: they inherit it
     with VirtualBench(joints(n, transport), clock="lockstep", control_period=dt) as vb:
         drives = [open_drive(j) for j in vb.joints]
         try:
@@ -95,40 +127,65 @@ def lockstep_run(n: int, transport: str, dt: float, rounds: int) -> dict:
         finally:
             for d in drives:
                 d.close()
+            if cpus:
+                realtime.pin(set(cpus))
     return {"rounds_per_s": rounds / wall, "speed": rounds * dt / wall,
             "cpu": 100 * cpu / wall}
+
+
+PLACEMENTS = (("inproc", 0, "in-process"), ("subprocess", 0, "child"),
+              ("subprocess", 1, "child, FIFO"))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--quick", action="store_true", help="1 s runs, fewer lock-step rounds")
+    ap.add_argument("--only", default="", help="run only the rows whose label contains this "
+                    "(e.g. 'pty', 'child', 'FIFO', 'lock-step')")
+    ap.add_argument("--rt-priority", type=int, default=40,
+                    help="SCHED_FIFO priority of the 'child, FIFO' rows (default 40)")
     a = ap.parse_args()
     seconds = 1.0 if a.quick else a.seconds
     print("### Real time, 1 kHz control period\n")
-    print("| transport | emulators | joints | rounds | delivered | fresh samples | period p50 ms | "
-          "period p99 ms | max period ms | latency p50 / p99 ms | host overruns | "
-          "drive overruns | CPU % |")
+    print("| transport | emulators, scheduling | joints | rounds | delivered | fresh samples | "
+          "period p50 ms | period p99 ms | max period ms | latency p50 / p99 ms | "
+          "host overruns | drive overruns | CPU % |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for process, where in (("inproc", "in-process"), ("subprocess", "child process")):
+    for process, fifo, where in PLACEMENTS:
         for transport in ("canopen", "serial"):
             label = {"canopen": "CANopen, " + ("virtual bus" if process == "inproc"
                                                else "socketcand"),
                      "serial": "ODrive ASCII, pty"}[transport]
             for n in (1, 2, 4):
-                r = realtime_run(n, transport, seconds, process=process)
+                if a.only not in f"{label} {where} real time":
+                    continue
+                try:
+                    r = realtime_run(n, transport, seconds, process=process,
+                                     priority=a.rt_priority if fifo else 0)
+                except NotPermitted as e:
+                    print(f"| {label} | {where} | {n} | skipped: {e} |", flush=True)
+                    continue
                 print(f"| {label} | {where} | {n} | {r['rounds']} / {r['expected']} | "
                       f"{100 * r['delivered']:.2f} % | {100 * r['fresh']:.2f} % | "
                       f"{r['p50']:.3f} | {r['p99']:.3f} | {r['max']:.2f} | "
                       f"{r['lat50']:.2f} / {r['lat99']:.2f} | {r['overruns']} | "
                       f"{r['drive_overruns']} | {r['cpu']:.0f} |", flush=True)
+    if a.only not in "lock-step CANopen":
+        return
     print("\n### Lock-step, 4 joints over CANopen (virtual bus)\n")
-    print("| control period | rounds/s | CPU per round µs | simulated s per wall s |")
-    print("|---|---|---|---|")
+    print("| control period | CPUs | rounds/s | CPU per round µs | simulated s per wall s | "
+          "one CPU / any |")
+    print("|---|---|---|---|---|---|")
     for dt in (0.001, 0.002, 0.005, 0.01):
-        r = lockstep_run(4, "canopen", dt, 1000 if a.quick else 3000)
-        print(f"| {dt * 1e3:g} ms | {r['rounds_per_s']:.0f} | "
-              f"{1e6 * r['cpu'] / 100 / r['rounds_per_s']:.0f} | {r['speed']:.1f}x |", flush=True)
+        rounds = 1000 if a.quick else 3000
+        pair = [lockstep_run(4, "canopen", dt, rounds, one_cpu=one) for one in (False, True)]
+        for one, r in zip((False, True), pair):
+            ratio = f"{pair[1]['speed'] / pair[0]['speed']:.2f}x" if one else ""
+            print(f"| {dt * 1e3:g} ms | {'one' if one else 'any'} | {r['rounds_per_s']:.0f} | "
+                  f"{1e6 * r['cpu'] / 100 / r['rounds_per_s']:.0f} | {r['speed']:.1f}x | "
+                  f"{ratio} |", flush=True)
+
 
 if __name__ == "__main__":
     main()

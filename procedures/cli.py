@@ -30,19 +30,25 @@ def register(app: typer.Typer) -> None:
                                       help="virtual (emulated CANopen/serial drives reached through the real "
                                            "protocol stacks; default), simulated (in-process plugs, fast) or "
                                            "hardware (the drives the bench file names: CAN adapter, serial port)"),
+        rt_priority: int = typer.Option(0, "--rt-priority",
+                                        help="SCHED_FIFO priority of this process, 1-98, for real-time benches "
+                                             "(needs root, CAP_SYS_NICE or an rtprio limit); 0: normal"),
     ) -> None:
         """Search excitation, identify and validate by tracking, joint after joint."""
         try:
             if transport not in ("simulated", "virtual", "hardware"):
                 raise BenchError(f"--transport must be virtual, simulated or hardware, got {transport!r}")
-            code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport)
+            from drivers.realtime import MAX_PRIORITY
+            if not 0 <= rt_priority <= MAX_PRIORITY:
+                raise BenchError(f"--rt-priority must be 0 (off) to {MAX_PRIORITY}, got {rt_priority}")
+            code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport, rt_priority)
         except BenchError as e:
             typer.echo(f"error: {e}", err=True)
             raise typer.Exit(2)
         raise typer.Exit(code)
 
 
-def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="virtual") -> int:
+def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="virtual", rt_priority=0) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -60,6 +66,11 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
     if transport == "virtual":
         from procedures.calibration import check_virtual
         check_virtual(cfg)
+    if rt_priority and cfg.clock == "realtime":   # before the drives' threads: they inherit it
+        from drivers.realtime import set_priority
+        why_not = set_priority(rt_priority)
+        if why_not:
+            typer.echo(f"warning: {why_not}", err=True)
     try:
         store = Store(data)
     except (OSError, Exception) as e:

@@ -122,3 +122,14 @@ def test_analyze_bad_records(operator, content, ctype, status):
     r = operator.post("/analyze", content=content, headers={"content-type": ctype}, timeout=60)
     assert r.status_code == status, r.text
     assert "\n" not in r.json()["detail"]
+
+
+def test_serve_refuses_a_bad_rt_priority_before_touching_anything(tmp_path):
+    """One line, exit 2, no data directory created (the server never starts)."""
+    import subprocess
+    import sys
+    data = tmp_path / "d"
+    r = subprocess.run([sys.executable, "-m", "bench.cli", "serve", "--rt-priority", "99", "--data", str(data)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.strip() == "error: rt_priority must be 0 (off) to 98, got 99", r.stderr
+    assert "Traceback" not in r.stderr and not data.exists()

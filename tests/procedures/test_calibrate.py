@@ -132,6 +132,7 @@ def test_unreachable_sliding_ends_with_reason(tmp_path):
 @pytest.mark.parametrize("args,message", [
     (["--bench", "nope"], "no such bench file"),
     (["--bench", "macro4", "--joints", "j9"], "no joint 'j9'"),
+    (["--bench", "macro4", "--rt-priority", "99"], "--rt-priority must be 0 (off) to 98"),
 ])
 def test_bad_input_exit_2(tmp_path, args, message):
     r = CliRunner().invoke(app, ["calibrate", *args, "--data", str(tmp_path)])
