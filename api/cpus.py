@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import os
 
-from drivers.realtime import pin  # noqa: F401  (re-exported: the server pins itself)
+from drivers.realtime import pin
+
+__all__ = ["pin", "split"]   # pin is drivers.realtime's, re-exported for the server
 
 
 def split() -> tuple[set[int], set[int]] | None:

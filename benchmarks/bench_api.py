@@ -3,7 +3,7 @@
 Not a timed test: prints a markdown table.  Loopback only; bounded request counts and time.
 
     python benchmarks/bench_api.py [--clients 50] [--poll 0.2] [--seconds 5] [--rounds 6] [--estops 5]
-                                   [--client-cpus server|any] [--no-pin]
+                                   [--client-cpus server|any] [--no-pin] [--rt-priority N]
 
 1. ``bench serve`` in a child process with macro4 switched to the realtime clock, as in
    production: every run's control loop runs in its own process (``api.run_process``), its
@@ -51,14 +51,14 @@ from api import cpus
 from api.server import free_port
 
 
-def start_server(tmp: Path, port: int, pin: bool = True) -> subprocess.Popen:
+def start_server(tmp: Path, port: int, pin: bool = True, rt_priority: int = 0) -> subprocess.Popen:
     text = resources.files("procedures.benches").joinpath("macro4.toml").read_text()
     bench = tmp / "macro4-realtime.toml"
     bench.write_text(re.sub(r'^clock = "lockstep"', 'clock = "realtime"', text, flags=re.M))
     env = {**os.environ, "BENCH_API_KEY": ""}
     proc = subprocess.Popen([sys.executable, "-c", "from bench.cli import main; main()", "serve", "--bench", str(bench),
                              "--data", str(tmp / "data"), "--port", str(port), "--log-level", "warning",
-                             "--pin-cpus" if pin else "--no-pin-cpus"],
+                             "--pin-cpus" if pin else "--no-pin-cpus", "--rt-priority", str(rt_priority)],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
@@ -147,13 +147,15 @@ def main() -> None:
     ap.add_argument("--client-cpus", choices=("server", "any"), default="server",
                     help="clients on the server's CPU (default) or on any CPU")
     ap.add_argument("--no-pin", action="store_true", help="bench serve --no-pin-cpus")
+    ap.add_argument("--rt-priority", type=int, default=0,
+                    help="bench serve --rt-priority: SCHED_FIFO for the run control processes (0: normal)")
     args = ap.parse_args()
     load0, uptime0 = os.getloadavg()[0], uptime()
     placement = None if args.no_pin else cpus.split()
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
         port = free_port()
-        proc = start_server(tmp, port, pin=not args.no_pin)
+        proc = start_server(tmp, port, pin=not args.no_pin, rt_priority=args.rt_priority)
         # the clients stand in for technicians' browsers on other machines; --client-nice lets
         # them yield the shared cores to the server (but then their own latency clock suffers)
         if args.client_nice:
@@ -226,7 +228,8 @@ def main() -> None:
     print(f"uptime at start: {uptime0}\nuptime at end:   {uptime()}")
     where = ("not pinned" if placement is None else
              f"server on CPU {sorted(placement[0])}, run processes on {sorted(placement[1])}")
-    print(f"CPUs: {where}; clients on {'the server CPU' if args.client_cpus == 'server' and placement else 'any CPU'}"
+    sched = f"SCHED_FIFO {args.rt_priority}" if args.rt_priority else "normal scheduling"
+    print(f"run processes: {sched}; CPUs: {where}; clients on {'the server CPU' if args.client_cpus == 'server' and placement else 'any CPU'}"
           f"{f', nice {args.client_nice}' if args.client_nice else ''}\n")
     print("| metric | value | target |")
     print("|---|---|---|")

@@ -12,6 +12,10 @@ Real time, 1 kHz: 1, 2 and 4 joints over CANopen (CiA 402, one SYNC per round) a
 * "child, FIFO": the same with every thread of both processes at SCHED_FIFO ``--rt-priority``
   (``drivers.realtime``; rows are skipped with a note where that is not permitted).
 
+"machine floor" rows run the host's pacer alone on the host's CPUs, with no drives: the
+stalls the machine itself imposes (on a virtual machine, the hypervisor's) bound what any
+row can reach.
+
 A round is one ``cycle`` per joint.  "period" is the gap between consecutive period starts,
 i.e. SYNC to SYNC over CANopen (the instant every drive samples and applies its torque) and
 command to command over serial; "latency" runs from a period's start to the round's last
@@ -109,6 +113,34 @@ def realtime_run(n: int, transport: str, seconds: float, dt: float = 1e-3,
             "drive_overruns": drive_overruns, "cpu": 100 * cpu / wall}
 
 
+def floor_run(seconds: float, priority: int, dt: float = 1e-3) -> dict:
+    """The machine's own floor: the host pacer alone on the host's CPUs, no drives."""
+    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    if len(cpus) >= 2:
+        realtime.pin(set(cpus[:-1]))
+    why_not = realtime.set_priority(priority) if priority else None
+    try:
+        if why_not:
+            raise NotPermitted(why_not)
+        pacer, tick = Pacer(True, dt), 0
+        for _ in range(50):
+            tick = pacer.next_tick(tick)
+        pacer.record, overruns0 = [], pacer.overruns
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            tick = pacer.next_tick(tick)
+        wall = time.perf_counter() - t0
+    finally:
+        realtime.set_priority(0)
+        if cpus:
+            realtime.pin(set(cpus))
+    period = np.diff(pacer.record) * 1e3
+    return {"rounds": len(pacer.record), "expected": int(wall / dt),
+            "delivered": len(pacer.record) / (wall / dt), "p50": np.percentile(period, 50),
+            "p99": np.percentile(period, 99), "max": period.max(),
+            "overruns": pacer.overruns - overruns0}
+
+
 def lockstep_run(n: int, transport: str, dt: float, rounds: int, one_cpu: bool = False) -> dict:
     cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
     if one_cpu and cpus:
@@ -152,6 +184,18 @@ def main() -> None:
           "period p50 ms | period p99 ms | max period ms | latency p50 / p99 ms | "
           "host overruns | drive overruns | CPU % |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for fifo in (0, 1):                  # what the machine itself allows, for comparison
+        where = "machine floor" + (", FIFO" if fifo else "")
+        if a.only not in f"no drives {where} real time":
+            continue
+        try:
+            r = floor_run(seconds, a.rt_priority if fifo else 0)
+        except NotPermitted as e:
+            print(f"| no drives (pacer alone) | {where} | 0 | skipped: {e} |", flush=True)
+            continue
+        print(f"| no drives (pacer alone) | {where} | 0 | {r['rounds']} / {r['expected']} | "
+              f"{100 * r['delivered']:.2f} % | | {r['p50']:.3f} | {r['p99']:.3f} | "
+              f"{r['max']:.2f} | | {r['overruns']} | | |", flush=True)
     for process, fifo, where in PLACEMENTS:
         for transport in ("canopen", "serial"):
             label = {"canopen": "CANopen, " + ("virtual bus" if process == "inproc"

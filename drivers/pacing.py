@@ -5,6 +5,12 @@ period boundary (real time) and opens a new tick, the others join that tick.  A 
 starts more than one whole period after its boundary skips the missed boundaries and counts
 them as overruns; it never bursts to catch up.  Lock-step ticks open at once.
 
+At normal priority the wait sleeps most of the way and yield-spins the last 0.2 ms (a plain
+sleep overshoots by 50-100 us plus scheduler noise, too much of a 1 ms period).  A thread at a
+real-time priority (``drivers.realtime``) sleeps the whole way instead: its timers have no
+slack and its wake-up preempts normal tasks, while a spin would starve the kernel workers
+that move pty and socket data to the drives.
+
 When a real-time grid (re)starts, the heap is collected once and frozen (``gc.freeze``): a
 full collection of this process's ~200k objects (numpy, scipy, numba, FastAPI) stops every
 thread for ~120 ms, i.e. a hundred missed periods; frozen objects are never scanned again.
@@ -12,6 +18,7 @@ thread for ~120 ms, i.e. a hundred missed periods; frozen objects are never scan
 from __future__ import annotations
 
 import gc
+import os
 import threading
 import time
 
@@ -36,6 +43,7 @@ class Pacer:
         self.due: float | None = None
         self.lock = threading.Lock()
         self.record: list[float] | None = None   # tick times, when a benchmark asks
+        self.spin = 2e-4                          # s of yield-spin before a boundary
 
     def next_tick(self, consumed: int) -> int:
         """The tick a drive that last used tick ``consumed`` must use now."""
@@ -53,6 +61,7 @@ class Pacer:
         if self.due is None or now - self.due > 1.0:   # first round, or after a pause
             gc.collect()
             gc.freeze()
+            self.spin = 0.0 if _realtime_thread() else 2e-4
             self.due = time.perf_counter()
             return
         self.due += self.dt
@@ -61,10 +70,16 @@ class Pacer:
             missed = int(late / self.dt)
             self.overruns += missed
             self.due += missed * self.dt
-        # sleep most of the way, then yield-spin the last 0.2 ms: time.sleep alone
-        # overshoots by 50-100 us plus scheduler noise, too much of a 1 ms period
+        spin = self.spin
         while True:
             left = self.due - time.perf_counter()
             if left <= 0:
                 return
-            time.sleep(left - 2e-4 if left > 3e-4 else 0)
+            time.sleep(left - spin if left > spin + 1e-4 else (0 if spin else left))
+
+
+def _realtime_thread() -> bool:
+    try:
+        return os.sched_getscheduler(0) in (os.SCHED_FIFO, os.SCHED_RR)
+    except (AttributeError, OSError):
+        return False
