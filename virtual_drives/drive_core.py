@@ -31,6 +31,7 @@ from virtual_drives.joint import VirtualJoint
 from virtual_drives.presets import preset
 
 FAULT_WATCHDOG = "watchdog"
+PLL_GAIN = 0.1          # share of a command's phase error the drive's grid absorbs per command
 
 
 class DriveCore:
@@ -154,6 +155,12 @@ class DriveCore:
             if n > 0:
                 self.step(n)
                 self.wall_ref += n * self.dt
+            if command:
+                # lock the drive's period grid onto the host's commands, as a CiA 402 drive
+                # locks its cycle onto SYNC: otherwise a grid anchored at one early or late
+                # command puts every later one near a rounding edge, where jitter alone
+                # reads as a missed period
+                self.wall_ref += PLL_GAIN * (now - self.wall_ref)
 
     def _torque(self) -> float:
         if self.state == DriveState.ENABLED:
