@@ -11,10 +11,8 @@ real-time priority (``drivers.realtime``) sleeps the whole way instead: its time
 slack and its wake-up preempts normal tasks, while a spin would starve the kernel workers
 that move pty and socket data to the drives.
 
-When a real-time grid starts, the GIL switch interval drops to half a period
-(``drivers.realtime.gil_for_period``: by default another thread may hold the GIL for 5 ms,
-five periods), and on every (re)start the heap is collected once and frozen (``gc.freeze``):
-a full collection of this process's ~200k objects (numpy, scipy, numba, FastAPI) stops every
+When a real-time grid (re)starts, the heap is collected once and frozen (``gc.freeze``): a
+full collection of this process's ~200k objects (numpy, scipy, numba, FastAPI) stops every
 thread for ~120 ms, i.e. a hundred missed periods; frozen objects are never scanned again.
 """
 from __future__ import annotations
@@ -23,8 +21,6 @@ import gc
 import os
 import threading
 import time
-
-from drivers.realtime import gil_for_period
 
 _PACERS: dict[tuple, "Pacer"] = {}
 _LOCK = threading.Lock()
@@ -66,7 +62,6 @@ class Pacer:
             gc.collect()
             gc.freeze()
             self.spin = 0.0 if _realtime_thread() else 2e-4
-            gil_for_period(self.dt)
             self.due = time.perf_counter()
             return
         self.due += self.dt

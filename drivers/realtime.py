@@ -16,7 +16,6 @@ apply them early, or to every thread (``pid`` names any process).  Elsewhere: no
 from __future__ import annotations
 
 import os
-import sys
 
 MAX_PRIORITY = 98            # 99 belongs to the kernel's watchdog and migration threads
 
@@ -56,13 +55,6 @@ def set_priority(priority: int, pid: int | None = None) -> str | None:
         except (ProcessLookupError, OSError):
             pass                      # a thread that ended meanwhile
     return None
-
-
-def gil_for_period(period: float) -> None:
-    """Cut the GIL switch interval to half a control period if it is longer.  CPython lets a
-    thread keep the GIL for 5 ms by default, five 1 ms periods: a control thread that wakes at
-    its boundary while a bus or pty thread runs would wait that long.  Process-wide."""
-    sys.setswitchinterval(min(sys.getswitchinterval(), max(period / 2, 1e-4)))
 
 
 def describe(pid: int | None = None) -> dict:

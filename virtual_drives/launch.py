@@ -21,7 +21,6 @@ import sys
 
 from bench.errors import InputError
 from drivers.joint_config import CLOCKS, complete_joint
-from drivers.realtime import gil_for_period
 from virtual_drives.drive_core import DriveCore, Ticker
 
 _CHANNELS = itertools.count()
@@ -246,8 +245,6 @@ def _child_main() -> None:
             msg = json.loads(line)
             try:
                 if emu is None:
-                    if msg["clock"] == "realtime":    # see drivers.realtime.gil_for_period
-                        gil_for_period(float(msg["control_period"]))
                     emu = Emulators(msg["joints"], msg["clock"], msg["control_period"],
                                     msg["seed"], socketcand=True)
                     reply(True, emu.joints)
