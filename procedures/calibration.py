@@ -20,6 +20,7 @@ from bench.lugre import LuGreParams
 from bench.records import read_csv
 from bench.store import Store
 from bench.traces import TraceWriter
+from drivers.realtime import describe
 from procedures.config import BenchConfig, load_bench
 from procedures.events import Cancel, Cancelled, Emitter, ProcedureFailed, Sink
 from procedures.excitation import SearchSettings, search
@@ -334,7 +335,8 @@ def build_report(store: Store, run_id: str, cfg: BenchConfig, plan: list[dict],
         elif step["status"] in ("pending", "running") and j["status"] == "succeeded":
             j["status"] = "incomplete"
     report = {"run_id": run_id, "bench": cfg.name, "joints": joints, "transport": transport,
-              "control_period": cfg.control_period, "clock": cfg.clock, "drivers": drivers or {}}
+              "control_period": cfg.control_period, "clock": cfg.clock, "drivers": drivers or {},
+              "scheduling": describe()}      # this process's policy, priority and CPUs
     d = store.run_dir(run_id)
     (d / "report.json").write_text(json.dumps(report, indent=2, default=str))
     (d / "report.html").write_text(_html(report))
