@@ -127,10 +127,12 @@ class Store:
         return run_id
 
     def claim(self, run_id: str) -> None:
-        """Take over a run (resume): this process owns it and it is running again."""
+        """Take over a run (a queued one starting, or a resume): this process owns it and it is
+        running; ``started`` keeps the first start."""
         with self._tx() as c:
-            c.execute("UPDATE runs SET state='running', owner_pid=?, owner_host=?, ended=NULL, error=NULL"
-                      " WHERE id=?", (os.getpid(), socket.gethostname(), run_id))
+            c.execute("UPDATE runs SET state='running', owner_pid=?, owner_host=?, ended=NULL, error=NULL,"
+                      " started=COALESCE(started, ?) WHERE id=?",
+                      (os.getpid(), socket.gethostname(), time.time(), run_id))
 
     def finish_run(self, run_id: str, state: str, result: dict | None = None, error: str | None = None):
         if state not in FINAL:

@@ -32,6 +32,9 @@ def test_identify_j1_succeeds_with_parameters(identified_j1, observer):
     assert all(v > 0 for v in j1["parameters"].values())
     assert isinstance(j1["diagnosis"], list) and j1["excitation"]["trials"] >= 1
     assert run["result"]["control"]["cycles"] > 0
+    # the run process that owned it, as it ran (lock-step bench: normal priority)
+    assert run["result"]["control"]["scheduling"]["policy"] == "normal"
+    assert run["created"] <= run["started"] <= run["ended"], run
     joint = observer.get("/joints/j1").json()
     assert joint["state"] == "idle" and joint["model"]["id"] == j1["model_id"]
     assert joint["drive"]["state"] == "disabled" and joint["drive"]["open"] is False
