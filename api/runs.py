@@ -112,7 +112,8 @@ class RunManager:
             seed = int(options.get("seed", 0))
             if procedure == "calibrate":
                 from procedures.calibration import STAGES, start_calibration
-                run_id = start_calibration(self.store, self.bench_spec, ids, seed)
+                run_id = start_calibration(self.store, self.bench_spec, ids, seed, options=options,
+                                           transport=self.transport)
                 total = len(ids) * len(STAGES)
             else:
                 run_id = self.store.create_run(P.KINDS[procedure], seed=seed, state="queued",

@@ -47,12 +47,15 @@ class CalibrationSettings:
     wrap_drives: Callable[[dict], dict] | None = None
 
 
-def start_calibration(store: Store, bench: str | Path, joints: list[str] | None = None, seed: int = 0) -> str:
-    """Create a queued calibration run with its plan; returns the run id."""
+def start_calibration(store: Store, bench: str | Path, joints: list[str] | None = None, seed: int = 0,
+                      options: dict | None = None, transport: str | None = None) -> str:
+    """Create a queued calibration run with its plan; returns the run id.  ``options`` and
+    ``transport`` are kept in the run's config, so the record says how it was asked for."""
     cfg = load_bench(bench)
     ids = cfg.select(joints)
     plan = [{"joint": j, "stage": s, "status": "pending"} for j in ids for s in STAGES]
-    run_id = store.create_run("calibration", config={"bench": str(bench), "joints": ids, "bench_config": cfg.raw},
+    run_id = store.create_run("calibration", config={"bench": str(bench), "joints": ids, "bench_config": cfg.raw,
+                                                     "options": dict(options or {}), "transport": transport},
                               seed=seed, state="queued")
     store.set_result(run_id, {"plan": plan})
     return run_id

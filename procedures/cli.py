@@ -78,7 +78,8 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
             raise
         raise InputError(f"{data}: cannot open the run store ({e.__class__.__name__}: {e})") from None
     store.recover()
-    run_id = latest_resumable(store, bench) if resume else start_calibration(store, bench, chosen, seed)
+    run_id = latest_resumable(store, bench) if resume else start_calibration(
+        store, bench, chosen, seed, options={"plots": plots, "rt_priority": rt_priority}, transport=transport)
     planned = store.get_run(run_id)["config"]["joints"]
     console = Console(stderr=True)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[status]}"),

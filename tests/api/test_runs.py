@@ -146,6 +146,7 @@ def test_estop_reaches_a_calibration_and_its_drives(live, operator, observer, ad
         run = wait_run(observer, run_id)
         assert run["state"] == "failed" and "emergency stop" in run["error"]
         assert run["result"]["joints"]["j3"]["status"] != "succeeded"
+        assert run["options"]["plots"] is False        # the record keeps what was asked for
     finally:
         wait_run(admin, run_id)
         assert admin.post("/estop/reset").status_code == 200
