@@ -14,6 +14,7 @@ from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
 from bench.records import Record
 from bench.residuals import breakdown
+from bench.unexplained import assess
 
 
 @dataclass
@@ -57,6 +58,7 @@ class Analysis:
             "baseline": breakdown(self.ident.data, self.ident.result.residual, alpha),
             "final": breakdown(self.ident.data, self.ident.data.friction - d.contexts[-1].model, alpha),
         }
+        doc["unexplained"] = assess(doc["residuals"]["final"])
         return doc
 
     # --- pictures ---------------------------------------------------------------------------
@@ -152,6 +154,10 @@ def render_html(name: str, doc: dict, files: dict) -> str:
             parts.append(_img(files["error_fall"]))
         parts.append("<h2>Diagnosis</h2><table><tr><th>sig.</th><th>effect</th><th>rms before</th>"
                      f"<th>rms after</th><th>evidence</th></tr>{diag_rows}</table>")
+        left = doc.get("unexplained")
+        if left:
+            head = "Still unexplained" if left["structured"] else "Nothing left to explain"
+            parts.append(f"<h2>{head}</h2><p>{e(left['evidence'])}</p>")
         parts.append(f"<h2>Steps</h2>{steps}")
         if "residual_baseline" in files:
             parts.append(f"<h2>Where LuGre alone fails</h2>{_img(files['residual_baseline'])}")

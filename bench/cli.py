@@ -140,6 +140,9 @@ def _print_report(doc: dict) -> None:
         mark = "*" if d["significant"] else " "
         out.print(f" {mark} {d['effect']:<28} {d['rms_before']:.4g} -> {d['rms_after']:.4g}  {d['evidence']}",
                   markup=False, highlight=False)
+    left = doc.get("unexplained")
+    if left and left["structured"]:
+        out.print(f"still unexplained: {left['evidence']}", markup=False, highlight=False)
     for w in doc.get("warnings", []):
         out.print(f"warning: {w}", markup=False, highlight=False)
 

@@ -1,7 +1,7 @@
 """Where does the model fail?  The residual (measured - model friction) broken down by
 regime, direction, position and time, its whiteness, and its correlation with the signals
 that point to physics: acceleration (inertia), sgn v (asymmetry, offset), position
-harmonics (cogging, gravity), time (drift)."""
+harmonics (cogging, gravity), time (drift), torque rate (a lag of the applied torque)."""
 from __future__ import annotations
 
 import numpy as np
@@ -79,6 +79,7 @@ def breakdown(data: FitData, residual: np.ndarray, alpha: float, bins: int = 12)
         "sin_position": _corr(r, np.sin(q)),
         "cos_position": _corr(r, np.cos(q)),
         "time": _corr(r, t),
+        "torque_rate": _corr(r, np.gradient(c.tau, c.dt_grid)[m]),
         "sgn_v_times_time": _corr(r, np.sign(v) * (t - t.mean())),
         "best_position_harmonic": _best_harmonic(q, r, span),
     }
