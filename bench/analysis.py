@@ -14,7 +14,7 @@ from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
 from bench.records import Record
 from bench.residuals import breakdown
-from bench.unexplained import assess
+from bench.unexplained import assess, noise_floor
 
 
 @dataclass
@@ -58,7 +58,9 @@ class Analysis:
             "baseline": breakdown(self.ident.data, self.ident.result.residual, alpha),
             "final": breakdown(self.ident.data, self.ident.data.friction - d.contexts[-1].model, alpha),
         }
-        doc["unexplained"] = assess(doc["residuals"]["final"])
+        data = self.ident.data
+        floor = noise_floor(data.c, self.record.tau, self.record.q, self.ident.inertia, data.mask)
+        doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor)
         return doc
 
     # --- pictures ---------------------------------------------------------------------------
