@@ -63,7 +63,7 @@ def simulate(
                 except ValueError:
                     raise BenchError(f"--param {p!r}: value must be a number") from None
             spec = spec.with_(friction=spec.friction.with_(**changes))
-        ev, inertia_factor, delta = parse_injections(effect, spec)
+        ev, inertia_factor, delta, lag = parse_injections(effect, spec)
         if delta is not None:
             spec = spec.with_(friction=spec.friction.with_(delta=delta))
         a = amplitude if amplitude is not None else spec.excitation[0]
@@ -73,7 +73,7 @@ def simulate(
         declared = declared_inertia if declared_inertia is not None else spec.inertia * inertia_factor
         sim = simulate_record(spec, a, f, duration, dt=1.0 / rate, seed=seed, extra=ev,
                               declared_inertia=declared, torque_noise=torque_noise,
-                              encoder_resolution=encoder_resolution)
+                              encoder_resolution=encoder_resolution, torque_lag=lag)
         if effect:
             sim.record.meta["injected"] = "; ".join(effect)
         sim.record.to_csv(output)

@@ -70,7 +70,7 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     lugre = {k: values[k] for k in LUGRE_KEYS}
     lugre["delta"] = values.get("delta", 1.0)
     ev = terms.empty()
-    extra: dict = {"inertia_error": 0.0}
+    extra: dict = {"inertia_error": 0.0, "torque_lag": 0.0}
     for apply in appliers:
         apply(values, extra, ev)
     c = data.c
@@ -89,6 +89,10 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     out = c.lowpass(F if add is None else F + add)
     if extra["inertia_error"]:
         out = out + extra["inertia_error"] * c.a
+    if extra["torque_lag"]:
+        # the joint felt tau(t - lag), the record says tau(t): the estimate tau - M qdd carries
+        # the difference (the filters are linear and time-invariant, so delay the filtered tau)
+        out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
     return out
 
 

@@ -10,12 +10,13 @@ longer than filtered noise, or it is still well above the record's own measureme
 floor (``noise_floor``).  Set on tuning seeds (1000-1999, never the tests'), 20 s and 40 s
 records of six joints: the 98 without an effect or with one the library found ended at a
 correlation-time ratio of 0.56-1.05 and at 0.70-1.39x the floor (a perfect model leaves the
-floor, 0.87-1.07x).  A torque lag of 2, 5 or 20 ms (not in the library) was flagged in all
-12 records of the direct drives (rotary, linear) and in 3 of 18 on the macro joints, where
-it mostly sits at the noise floor once gravity, inertia or position terms absorb its
-in-phase part (a sine excitation repeats every cycle, so a cycle-locked mismatch can pass
-for them).  A linear correlation of the final residual is rare (the fit projects out what
-its sensitivities span): the regime and direction in which it concentrates point further.
+floor, 0.87-1.07x).  Physics outside the library was flagged in 7 of 7 records with a
+saturating torque constant and, before ``torque_lag`` joined the library, in all 12
+direct-drive records with a torque lag of 2-20 ms (3 of 18 on the macro joints, where
+gravity, inertia or position terms absorbed most of it: a sine excitation repeats every
+cycle, so a cycle-locked mismatch can pass for them).  A linear correlation of the final
+residual is rare (the fit projects out what its sensitivities span): the regime and
+direction in which it concentrates point further.
 """
 from __future__ import annotations
 

@@ -130,13 +130,16 @@ def simulate_record(spec: JointSpec, amplitude: float, frequency: float, duratio
                     dt: float = 1e-3, seed: int = 0, extra: np.ndarray | None = None,
                     declared_inertia: float | None = None, torque_noise: float | None = None,
                     encoder_resolution: float | None = None, q0: float | None = None,
-                    tau: np.ndarray | None = None) -> Simulation:
+                    tau: np.ndarray | None = None, torque_lag: float = 0.0) -> Simulation:
     """Open-loop excitation of one joint with gravity compensated by the host, recorded at
     1/dt.  ``extra`` holds hidden physics (``bench.terms``); ``declared_inertia`` is the
-    inertia written into the record's metadata (the truth by default)."""
+    inertia written into the record's metadata (the truth by default); the joint feels the
+    commanded torque ``torque_lag`` seconds late (the record keeps the command's times)."""
     n = int(round(duration / dt))
     t = np.arange(n) * dt
-    cmd = sine_torque(amplitude, frequency, t) if tau is None else np.asarray(tau, float)
+    recorded = sine_torque(amplitude, frequency, t) if tau is None else np.asarray(tau, float)
+    # the held command, delayed: what the joint feels in each interval
+    cmd = np.interp(t - torque_lag, t, recorded, left=0.0) if torque_lag > 0 else recorded
     ev = terms.empty() if extra is None else np.array(extra, dtype=float)
     f = spec.friction
     n_sub = substeps_for(dt, spec.inertia, f.sigma0, f.sigma1, f.sigma2)
@@ -146,7 +149,7 @@ def simulate_record(spec: JointSpec, amplitude: float, frequency: float, duratio
     rng = np.random.default_rng(seed)
     sigma_tau = spec.torque_noise if torque_noise is None else torque_noise
     res = spec.encoder_resolution if encoder_resolution is None else encoder_resolution
-    tau_meas = cmd + sigma_tau * rng.standard_normal(n)
+    tau_meas = recorded + sigma_tau * rng.standard_normal(n)
     meta = {
         "inertia": spec.inertia if declared_inertia is None else declared_inertia,
         "joint_type": spec.joint_type,

@@ -56,10 +56,16 @@ def _stribeck(spec, travel, T, rng):
     return f"stribeck_shape:delta={d:.4f}"
 
 
+def _lag(spec, travel, T, rng):
+    # a current loop or a command held to the next SYNC: a few ms; in tenths of a period of
+    # the excitation that is what a direct drive shows, a slow macro joint hardly at all
+    return f"torque_lag:delay={rng.uniform(0.002, 0.008):.5f}"
+
+
 GENERATORS = {
     "inertia_error": _inertia, "direction_asymmetry": _asym, "cogging": _cogging,
     "position_dependent_friction": _posfric, "gravity": _gravity, "torque_offset": _offset,
-    "thermal_drift": _thermal, "stribeck_shape": _stribeck,
+    "thermal_drift": _thermal, "stribeck_shape": _stribeck, "torque_lag": _lag,
 }
 
 
@@ -81,10 +87,10 @@ def simulate_scenario(spec: JointSpec, effects: list[str], seed: int, duration: 
     Returns (Simulation, injection texts)."""
     from bench.effects.inject import parse_injections
     texts = random_effects(spec, effects, seed, duration)
-    ev, factor, delta = parse_injections(texts, spec)
+    ev, factor, delta, lag = parse_injections(texts, spec)
     if delta is not None:
         spec = spec.with_(friction=spec.friction.with_(delta=delta))
     sim = simulate_record(spec, *spec.excitation, duration=duration, seed=seed, extra=ev,
-                          declared_inertia=spec.inertia * factor)
+                          declared_inertia=spec.inertia * factor, torque_lag=lag)
     sim.record.meta["injected"] = "; ".join(texts)
     return sim, texts

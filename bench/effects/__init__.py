@@ -13,12 +13,13 @@ from bench.effects.inertia_error import InertiaError
 from bench.effects.position_dependent_friction import PositionDependentFriction
 from bench.effects.stribeck_shape import StribeckShape
 from bench.effects.thermal_drift import ThermalDrift
+from bench.effects.torque_lag import TorqueLag
 from bench.effects.torque_offset import TorqueOffset
 from bench.errors import InputError
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
     InertiaError(), DirectionAsymmetry(), Cogging(), PositionDependentFriction(),
-    Gravity(), TorqueOffset(), ThermalDrift(), StribeckShape(),
+    Gravity(), TorqueOffset(), ThermalDrift(), StribeckShape(), TorqueLag(),
 )}
 
 

@@ -83,7 +83,7 @@ class Effect:
 
     def inject(self, kw: dict, ev: np.ndarray, spec) -> dict:
         """Write the effect into a virtual joint.  Returns changes to the simulation that
-        are not terms: {"inertia_factor": x} or {"delta": d}."""
+        are not terms: {"inertia_factor": x}, {"delta": d} or {"torque_lag": s}."""
         raise NotImplementedError
 
 

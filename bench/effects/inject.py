@@ -18,9 +18,10 @@ def parse_injection(text: str) -> tuple[str, dict]:
 
 
 def parse_injections(texts, spec):
-    """Returns (terms vector, declared/true inertia factor, Stribeck exponent or None)."""
+    """Returns (terms vector, declared/true inertia factor, Stribeck exponent or None,
+    torque lag in s)."""
     ev = terms.empty()
-    factor, delta = 1.0, None
+    factor, delta, lag = 1.0, None, 0.0
     seen = set()
     for text in texts:
         name, kw = parse_injection(text)
@@ -33,4 +34,5 @@ def parse_injections(texts, spec):
         changes = effect.inject(kw, ev, spec)
         factor *= changes.get("inertia_factor", 1.0)
         delta = changes.get("delta", delta)
-    return ev, factor, delta
+        lag = changes.get("torque_lag", lag)
+    return ev, factor, delta, lag
