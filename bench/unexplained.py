@@ -1,9 +1,8 @@
 """What the final model still does not explain, and where to look outside the effect library.
 
 The diagnosis can only name effects it has.  When the residual of the final model is still
-structured — correlated far longer than measurement noise through the same filters would be
-— no effect in the library accounts for it, and the technician needs to know that rather
-than a forced answer: how strongly structured it is, where it concentrates (regime,
+structured, no effect in the library accounts for it, and the technician needs to know that
+rather than a forced answer: how strongly structured it is, where it concentrates (regime,
 direction) and which signal it follows, each with the physics that typically leaves that
 signature.  "Structured" means either of two things: the residual stays correlated far
 longer than filtered noise, or it is still well above the record's own measurement-noise
@@ -31,7 +30,7 @@ FOLLOWS = 0.3             # |correlation| that counts as following a signal
 
 # signal -> (what the residual follows, physics outside the library that leaves it)
 SIGNALS = {
-    "torque_rate": ("the rate of change of the applied torque",
+    "torque_rate": ("the rate of change of the recorded torque",
                     "a lag or delay between the commanded and the applied torque (current loop, "
                     "communication), or a compliant transmission"),
     "velocity": ("the velocity", "viscous friction that is not linear in velocity (sigma2 |v|^beta)"),
