@@ -26,7 +26,7 @@ from api.runs import RunManager
 from api.safety import EStop
 from bench.errors import InputError
 from bench.store import Store
-from drivers.realtime import MAX_PRIORITY
+from drivers.realtime import check_priority
 from procedures.config import load_bench
 
 log = logging.getLogger("api")
@@ -51,8 +51,7 @@ class ServiceConfig:
 def build_service(conf: ServiceConfig) -> tuple[Service, Path | None]:
     if conf.transport not in TRANSPORTS:
         raise InputError(f"transport must be one of {', '.join(TRANSPORTS)}, got {conf.transport!r}")
-    if not 0 <= conf.rt_priority <= MAX_PRIORITY:
-        raise InputError(f"rt_priority must be 0 (off) to {MAX_PRIORITY}, got {conf.rt_priority}")
+    check_priority(conf.rt_priority, "rt_priority")
     cfg = load_bench(conf.bench)
     data = Path(conf.data_dir)
     try:

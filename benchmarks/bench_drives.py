@@ -59,9 +59,14 @@ class NotPermitted(Exception):
     pass
 
 
+def _cpus() -> list[int]:
+    """The CPUs this process may use, in order (empty where affinity is not supported)."""
+    return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+
+
 def realtime_run(n: int, transport: str, seconds: float, dt: float = 1e-3,
                  process: str = "inproc", priority: int = 0) -> dict:
-    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    cpus = _cpus()
     with VirtualBench(joints(n, transport), clock="realtime", control_period=dt,
                       process=process) as vb:
         if process == "subprocess" and len(cpus) >= 2:
@@ -115,7 +120,7 @@ def realtime_run(n: int, transport: str, seconds: float, dt: float = 1e-3,
 
 def floor_run(seconds: float, priority: int, dt: float = 1e-3) -> dict:
     """The machine's own floor: the host pacer alone on the host's CPUs, no drives."""
-    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    cpus = _cpus()
     if len(cpus) >= 2:
         realtime.pin(set(cpus[:-1]))
     why_not = realtime.set_priority(priority) if priority else None
@@ -142,7 +147,7 @@ def floor_run(seconds: float, priority: int, dt: float = 1e-3) -> dict:
 
 
 def lockstep_run(n: int, transport: str, dt: float, rounds: int, one_cpu: bool = False) -> dict:
-    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    cpus = _cpus()
     if one_cpu and cpus:
         realtime.pin({cpus[0]})        # before the bus threads start: they inherit it
     with VirtualBench(joints(n, transport), clock="lockstep", control_period=dt) as vb:

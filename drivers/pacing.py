@@ -18,9 +18,10 @@ thread for ~120 ms, i.e. a hundred missed periods; frozen objects are never scan
 from __future__ import annotations
 
 import gc
-import os
 import threading
 import time
+
+from drivers import realtime
 
 _PACERS: dict[tuple, "Pacer"] = {}
 _LOCK = threading.Lock()
@@ -61,7 +62,7 @@ class Pacer:
         if self.due is None or now - self.due > 1.0:   # first round, or after a pause
             gc.collect()
             gc.freeze()
-            self.spin = 0.0 if _realtime_thread() else 2e-4
+            self.spin = 0.0 if realtime.policy() in ("fifo", "rr") else 2e-4
             self.due = time.perf_counter()
             return
         self.due += self.dt
@@ -75,11 +76,7 @@ class Pacer:
             left = self.due - time.perf_counter()
             if left <= 0:
                 return
-            time.sleep(left - spin if left > spin + 1e-4 else (0 if spin else left))
-
-
-def _realtime_thread() -> bool:
-    try:
-        return os.sched_getscheduler(0) in (os.SCHED_FIFO, os.SCHED_RR)
-    except (AttributeError, OSError):
-        return False
+            if spin and left <= spin + 1e-4:
+                time.sleep(0)             # yield-spin the last stretch
+            else:
+                time.sleep(left - spin)

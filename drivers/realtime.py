@@ -17,7 +17,16 @@ from __future__ import annotations
 
 import os
 
+from bench.errors import InputError
+
 MAX_PRIORITY = 98            # 99 belongs to the kernel's watchdog and migration threads
+
+
+def check_priority(priority: int, name: str = "real-time priority") -> int:
+    """``priority`` if it is 0 (off) to MAX_PRIORITY, else an InputError naming ``name``."""
+    if not 0 <= priority <= MAX_PRIORITY:
+        raise InputError(f"{name} must be 0 (off) to {MAX_PRIORITY}, got {priority}")
+    return priority
 
 
 def threads(pid: int | None = None) -> list[int]:
@@ -41,8 +50,7 @@ def pin(cpus: set[int], pid: int | None = None) -> None:
 def set_priority(priority: int, pid: int | None = None) -> str | None:
     """Every thread of process ``pid`` to SCHED_FIFO at ``priority`` (1..98), or back to the
     normal policy with 0.  Returns None when done, else one line saying why not."""
-    if not 0 <= priority <= MAX_PRIORITY:
-        raise ValueError(f"real-time priority must be 0 (off) to {MAX_PRIORITY}, got {priority}")
+    check_priority(priority)
     if not hasattr(os, "sched_setscheduler"):
         return "real-time scheduling is not available on this system"
     policy = os.SCHED_FIFO if priority else os.SCHED_OTHER
@@ -57,11 +65,19 @@ def set_priority(priority: int, pid: int | None = None) -> str | None:
     return None
 
 
+def policy(pid: int | None = None) -> str:
+    """Scheduling policy of thread or process ``pid`` (the calling thread by default):
+    "fifo", "rr", "normal", or "unknown" where it cannot be read."""
+    try:
+        return {os.SCHED_FIFO: "fifo", os.SCHED_RR: "rr"}.get(os.sched_getscheduler(pid or 0), "normal")
+    except (AttributeError, OSError):
+        return "unknown"
+
+
 def describe(pid: int | None = None) -> dict:
     """Policy, priority and CPUs of process ``pid``'s main thread (for run records)."""
     try:
-        policy = os.sched_getscheduler(pid or 0)
-        return {"policy": {os.SCHED_FIFO: "fifo", os.SCHED_RR: "rr"}.get(policy, "normal"),
+        return {"policy": policy(pid),
                 "priority": os.sched_getparam(pid or 0).sched_priority,
                 "cpus": sorted(os.sched_getaffinity(pid or 0))}
     except (AttributeError, OSError):

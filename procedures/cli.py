@@ -38,9 +38,8 @@ def register(app: typer.Typer) -> None:
         try:
             if transport not in ("simulated", "virtual", "hardware"):
                 raise BenchError(f"--transport must be virtual, simulated or hardware, got {transport!r}")
-            from drivers.realtime import MAX_PRIORITY
-            if not 0 <= rt_priority <= MAX_PRIORITY:
-                raise BenchError(f"--rt-priority must be 0 (off) to {MAX_PRIORITY}, got {rt_priority}")
+            from drivers.realtime import check_priority
+            check_priority(rt_priority, "--rt-priority")
             code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport, rt_priority)
         except BenchError as e:
             typer.echo(f"error: {e}", err=True)
