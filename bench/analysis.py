@@ -9,12 +9,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bench import plots
-from bench.diagnosis import Diagnosis, diagnose
+from bench.diagnosis import Diagnosis, diagnose, drop_absorbers
 from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
+from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.residuals import breakdown
-from bench.unexplained import assess, noise_floor
+from bench.unexplained import assess, noise_floor, structured
 
 
 @dataclass
@@ -60,8 +61,18 @@ class Analysis:
         }
         data = self.ident.data
         floor = noise_floor(data.c, self.record.tau, self.record.q, self.ident.inertia, data.mask)
-        doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor)
+        doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor,
+                                    self.predictability(), lugre["Fc"])
         return doc
+
+    def predictability(self) -> dict:
+        """How much of the final residual the joint's state predicts on held-out segments
+        (computed once: report() is called for the JSON, the HTML and the CLI)."""
+        d = self.diagnosis
+        if d.final_predictability is None:
+            data = self.ident.data
+            d.final_predictability = assess_predictability(data.c, data.friction - d.contexts[-1].model, d.cv)
+        return d.final_predictability
 
     # --- pictures ---------------------------------------------------------------------------
     def write_plots(self, directory: Path) -> dict:
@@ -116,7 +127,14 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
 
 
 def _diagnose(ident: Identification, rec: Record, add):
-    return diagnose(ident.data, ident.result, rec.meta, ident.inertia, add=add, auto=not add)
+    diag = diagnose(ident.data, ident.result, rec.meta, ident.inertia, add=add, auto=not add)
+    if add:
+        return diag
+
+    def leftover(residual):
+        p = diag.final_predictability = assess_predictability(ident.data.c, residual, diag.cv)
+        return p["relies_on"] if structured(p, diag.model.values["Fc"]) else []
+    return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
 
 
 def _img(path: Path) -> str:

@@ -93,8 +93,10 @@ def _cleaned_starts(data: FitData, values: dict, appliers, inertia: float) -> li
     lugre_only = {k: values[k] for k in LUGRE_KEYS}
     try:
         contribution = predict(data, values, appliers) - predict(data, lugre_only)
-        cleaned = FitData(c=data.c, friction=data.friction - contribution, mask=data.mask, z0=data.z0)
-        return lugre_starts(cleaned, section3_estimates(cleaned, inertia), inertia)
+        cleaned = FitData(c=data.c, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
+                          revolute=data.revolute)
+        revolute = data.revolute
+        return lugre_starts(cleaned, section3_estimates(cleaned, inertia, revolute=revolute), inertia)
     except (NotIdentifiable, ValueError, FloatingPointError):
         return []
 
@@ -120,6 +122,8 @@ class Diagnosis:
     steps: list[Step]
     remaining: list[Screen]        # last screening of effects not added
     contexts: list[Context]        # model state before each step and at the end
+    cv: CrossValidation | None = None   # the held-out motion segments everything was scored on
+    final_predictability: dict | None = None   # of the final residual, once assessed
 
     def entries(self) -> list[dict]:
         """Ranked diagnosis list of the JSON contract: the effects of the final model in the
@@ -248,7 +252,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         cur = _backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms)
         contexts.append(cur.ctx)
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
-                     remaining=screens, contexts=contexts)
+                     remaining=screens, contexts=contexts, cv=cv)
 
 
 def _without(data: FitData, model: Model, name: str) -> Model:
@@ -272,15 +276,45 @@ def _backward_pass(data, cur: Evaluated, steps: list[Step], cv, meta, inertia, b
             step.evidence += f" — but not needed once {', '.join(e.name for e in trial.model.effects)} " \
                              f"was added (held-out rms {trial.rms:.3g} without it)"
             cur = trial
+    _rechain(steps, baseline_rms, cur.rms)
+    return cur
+
+
+def _rechain(steps: list[Step], baseline_rms: float, final_rms: float) -> None:
+    """The reported chain of errors follows the effects that stayed."""
     kept = [s for s in steps if not s.removed]
-    if len(kept) < len(steps):  # the reported chain follows the effects that stayed
+    if len(kept) < len(steps):
         before = baseline_rms
         for s in kept:
             s.rms_before = before
             before = s.rms_after
         if kept:
-            kept[-1].rms_after = cur.rms
-    return cur
+            kept[-1].rms_after = final_rms
+
+
+def drop_absorbers(data: FitData, diag: Diagnosis, meta: dict, inertia: float, leftover) -> Diagnosis:
+    """No wrong story: an effect that only absorbed part of a structure it does not explain is
+    not credited.  ``leftover(residual)`` names the state signals a *structured* final
+    residual depends on (empty when nothing is left).  If what the final model leaves still
+    depends on an added effect's own signals (cogging fitted to a cubic in position, say), its
+    physics did not hold: it is dropped and the verdict speaks of physics outside the
+    library.  Effects the user forced with --add stay."""
+    while True:
+        relies = leftover(data.friction - diag.contexts[-1].model)
+        top = set(relies[:2])
+        suspects = [s for s in diag.steps if not s.removed and not s.forced
+                    and top & set(get(s.effect).signals)]
+        if not suspects:
+            return diag
+        step = suspects[-1]
+        trial = _evaluate(data, _without(data, diag.model, step.effect), diag.cv, meta, inertia)
+        step.removed = True
+        step.evidence += (f" — but not credited: what the model leaves with it still depends on "
+                          f"{' and '.join(sorted(top & set(get(step.effect).signals)))}, so it only "
+                          f"absorbed part of a structure its physics does not explain")
+        diag.model, diag.final_rms = trial.model, trial.rms
+        diag.contexts.append(trial.ctx)
+        _rechain(diag.steps, diag.baseline_rms, trial.rms)
 
 
 def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:

@@ -44,6 +44,7 @@ class FitData:
     friction: np.ndarray      # eq. 5 estimate with the declared inertia
     mask: np.ndarray          # samples scored (filter edges and start-up excluded)
     z0: float
+    revolute: bool = True     # gravity (sin q, cos q) is a candidate nuisance term
 
     @property
     def n(self) -> int:

@@ -68,34 +68,56 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
     start = max(edge, int(0.25 / (c.frequency * c.dt_grid)))
     mask = np.zeros(n, dtype=bool)
     mask[start:n - edge] = True
-    return FitData(c=c, friction=F, mask=mask, z0=0.0), M
+    return FitData(c=c, friction=F, mask=mask, z0=0.0, revolute=rec.joint_type == "revolute"), M
 
 
-def _check_sliding(c: Conditioned, F: np.ndarray, name: str) -> tuple[float, float, float]:
+def _check_sliding(c: Conditioned, F: np.ndarray, name: str,
+                   revolute: bool = True) -> tuple[float, float, float, np.ndarray]:
     """Eq. 8 on the high-velocity part of the map; raise if the joint never slid.
-    Returns (Fc, sigma2, v_max)."""
+
+    Sliding means that at its highest speeds the friction follows sgn(v) (plus viscous
+    friction) in both directions.  A constant offset, gravity left in the torque (a sin q +
+    b cos q) or a direction asymmetry are not reasons to refuse: they are regressed out here
+    (and named later by the diagnosis).  Returns (Fc, sigma2, v_max, the regressed-out
+    torque on every sample)."""
     speed = np.abs(c.v)
     vmax = float(np.percentile(speed, 99.5))
     if vmax <= 0:
         raise NotIdentifiable(f"{name}: the joint never moved")
     hi = speed > 0.6 * vmax
-    X = np.column_stack([np.sign(c.v[hi]), c.v[hi]])
+    up, down = int(np.sum(hi & (c.v > 0))), int(np.sum(hi & (c.v < 0)))
+    if min(up, down) < 3:
+        raise NotIdentifiable(
+            f"{name}: the joint slides in one direction only ({up} fast samples moving up, {down} "
+            f"down); record a motion that slides both ways (a torque sine or a back-and-forth move)")
+    nuisance = [np.ones_like(F)]
+    if revolute and np.ptp(c.q) > 0.05:  # gravity is only separable from an offset with travel
+        nuisance += [np.sin(c.q), np.cos(c.q)]
+    N = np.column_stack(nuisance)
+    X = np.column_stack([np.sign(c.v[hi]), c.v[hi], N[hi]])
     coef, *_ = np.linalg.lstsq(X, F[hi], rcond=None)
     pred = X @ coef
     ss = np.sum((F[hi] - F[hi].mean()) ** 2)
     r2 = 1.0 - np.sum((F[hi] - pred) ** 2) / max(ss, 1e-300)
-    agree = np.mean(np.sign(F[hi]) == np.sign(c.v[hi]))
+    other = N @ coef[2:]
+    agree = np.mean(np.sign(F[hi] - other[hi]) == np.sign(c.v[hi]))
     if coef[0] <= 0 or r2 < 0.8 or agree < 0.9:
         raise NotIdentifiable(
             f"{name}: the joint never reaches sliding (at its highest speeds friction does not "
-            f"follow sgn(v): R^2 {r2:.2f}, sign agreement {agree:.0%}); raise the excitation amplitude")
-    return float(coef[0]), float(max(coef[1], 0.0)), vmax
+            f"follow sgn(v), even allowing for an offset and gravity: R^2 {r2:.2f}, sign agreement "
+            f"{agree:.0%}); record with a larger torque amplitude or faster motion, so that the "
+            f"joint slides clearly in both directions")
+    return float(coef[0]), float(max(coef[1], 0.0)), vmax, other
 
 
-def section3_estimates(data: FitData, M: float, name: str = "record") -> dict:
-    c, F = data.c, data.friction
+def section3_estimates(data: FitData, M: float, name: str = "record", revolute: bool = True) -> dict:
+    c = data.c
     v, q = c.v, c.q
-    Fc, s2, vmax = _check_sliding(c, F, name)
+    Fc, s2, vmax, other = _check_sliding(c, data.friction, name, revolute)
+    # the steps below read the map: without the offset/gravity found above (the dynamic fit
+    # still sees them, and the diagnosis names them)
+    F = data.friction - other
+    skipped = {}
     speed = np.abs(v)
     decel = v * c.a < 0
     # below ~5 % of the top speed the map is dominated by presliding and stick-slip
@@ -104,6 +126,9 @@ def section3_estimates(data: FitData, M: float, name: str = "record") -> dict:
     # eq. 9: friction reached on the sliding-to-presliding approach
     band = decel & (speed > v_lo) & (speed < 0.1 * vmax) & data.mask
     Fs = float(np.median(np.abs(F[band]) - s2 * speed[band])) if band.sum() > 5 else 1.1 * Fc
+    if band.sum() <= 5:
+        skipped["Fs"] = ("eq. 9 needs the joint to slow from sliding to a stop; the record has "
+                         "too few samples there, so Fs starts at 1.1 Fc")
     Fs = max(Fs, Fc * 1.01)
     # eq. 16: slope near the origin on the approach branch
     near = decel & (speed > v_lo) & (speed < 0.2 * vmax) & data.mask
@@ -114,6 +139,8 @@ def section3_estimates(data: FitData, M: float, name: str = "record") -> dict:
     alpha_eq16 = alpha
     if not (np.isfinite(alpha) and alpha > 0):
         alpha = 2.0 / vmax
+        skipped["alpha_eq16"] = ("eq. 16 needs a clear slope of the map near the origin on the "
+                                 "approach branch; not found, alpha starts from the top speed")
     # fine-tune the steady-state map (6c), as the paper tunes alpha by matching maps, on the
     # approach branch and on the high-velocity part where breakaway overshoot has died out
     slide = ((decel & (speed > v_lo)) | (speed > 0.15 * vmax)) & data.mask
@@ -149,8 +176,13 @@ def section3_estimates(data: FitData, M: float, name: str = "record") -> dict:
             sig1.append(coef[1] - s2)
     sigma0 = float(np.median(sig0)) if sig0 else float("nan")
     sigma1 = float(np.median(sig1)) if sig1 else float("nan")
+    if not sig0:
+        skipped["sigma0"] = skipped["sigma1"] = (
+            "no presliding window: the friction never reverses slowly enough to read the "
+            "force-displacement slope; sigma0 and sigma1 come from the dynamic fit alone")
     return {"Fc": Fc, "Fs": Fs, "alpha": alpha, "alpha_eq16": alpha_eq16, "sigma0": sigma0,
-            "sigma1": sigma1, "sigma2": s2, "v_max": vmax, "presliding_windows": len(sig0)}
+            "sigma1": sigma1, "sigma2": s2, "v_max": vmax, "presliding_windows": len(sig0),
+            "offset_and_gravity_rms": float(np.sqrt(np.mean(other ** 2))), "skipped": skipped}
 
 
 def _starting_point(data: FitData, est: dict, M: float) -> dict:
@@ -236,14 +268,15 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
     from bench.signals import torque_hold
     hold = torque_hold(rec, name)
     data, M = prepare(rec, inertia, cutoff, name, hold)
-    est = section3_estimates(data, M, name)
+    revolute = data.revolute
+    est = section3_estimates(data, M, name, revolute)
     res = _fit_lugre(data, est, M)
     if hold == "auto":
         hold = "zoh"
         if rec.qd is None and _prefers_sampled_torque(rec, data, res):
             hold = "sample"
             data, M = prepare(rec, inertia, cutoff, name, hold)
-            est = section3_estimates(data, M, name)
+            est = section3_estimates(data, M, name, revolute)
             res = _fit_lugre(data, est, M)
     p = res.lugre()
     identifiable = {}
@@ -267,7 +300,8 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
             "samples": data.n, "effective_sample_fraction": res.n_eff_fraction,
             "cutoff_hz": data.c.cutoff, "excitation_hz": data.c.frequency, "torque_hold": hold}
     return Identification(params=p, uncertainty=res.stderr, identifiable=identifiable, fit=fitq,
-                          initial={k: _finite_or_none(v) for k, v in est.items()}, inertia=M,
+                          initial={k: (v if k == "skipped" else _finite_or_none(v)) for k, v in est.items()},
+                          inertia=M,
                           data=data, result=res, warnings=warnings)
 
 

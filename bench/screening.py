@@ -27,6 +27,7 @@ import numpy as np
 
 from bench.effects import Context, Effect
 from bench.fitting import FitData, FitResult, Param, predict
+from bench.signals import reversals
 
 MIN_EXPLAINED = 0.15
 MIN_EXPLAINED_ACROSS = 0.10
@@ -71,14 +72,17 @@ class CrossValidation:
         c = data.c
         step = max(1, int(1.0 / (8.0 * c.cutoff * c.dt_grid)))  # residuals are low-passed
         self.idx = np.nonzero(data.mask)[0][::step]
-        phase = (c.t[self.idx] - c.t[0]) * c.frequency
-        cycle = np.floor(phase).astype(int)
-        ncyc = int(cycle.max() - cycle.min() + 1)
-        self.n_folds = int(min(n_folds, max(ncyc, 2)))
-        self.fold = (cycle - cycle.min()) % self.n_folds
-        blocks = np.floor(2 * phase).astype(int)
-        _, self.block = np.unique(blocks, return_inverse=True)
+        # blocks are the motion segments between velocity reversals (half-cycles of a sine,
+        # but any excitation has them); consecutive pairs (one each way) form the units that
+        # are dealt into interleaved folds
+        vmax = float(np.percentile(np.abs(c.v), 99.5))
+        rev = reversals(c.v, 0.05 * vmax)
+        segment = np.searchsorted(rev, self.idx, side="right")
+        _, self.block = np.unique(segment, return_inverse=True)
         self.n_blocks = int(self.block.max() + 1)
+        pair = self.block // 2
+        self.n_folds = int(min(n_folds, max(int(pair.max()) + 1, 2)))
+        self.fold = pair % self.n_folds
         self.direction = (c.v[self.idx] > 0).astype(int)
 
     def _grams(self, X: np.ndarray, r: np.ndarray, groups: np.ndarray, n: int):

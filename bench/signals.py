@@ -83,6 +83,39 @@ def excitation_frequency(t: np.ndarray, tau: np.ndarray) -> float:
     return float(freqs[k])
 
 
+def reversals(v: np.ndarray, threshold: float) -> np.ndarray:
+    """Indices where the motion reverses: the velocity goes from above +threshold to below
+    -threshold or back (the hysteresis keeps noise around a standstill from counting); each
+    reversal is placed at the last sign change of v before the new direction is reached."""
+    v = np.asarray(v, dtype=float)
+    state = np.where(v > threshold, 1, np.where(v < -threshold, -1, 0))
+    held = np.nonzero(state)[0]
+    if len(held) < 2:
+        return np.zeros(0, dtype=int)
+    st = state[held]
+    reached = held[1:][st[1:] != st[:-1]]          # first sample in the new direction
+    s = np.sign(v)
+    changes = np.nonzero(s[1:] != s[:-1])[0] + 1
+    k = np.searchsorted(changes, reached, side="right") - 1
+    return np.where(k >= 0, changes[np.maximum(k, 0)], reached).astype(int)
+
+
+def motion_frequency(t: np.ndarray, q: np.ndarray) -> tuple[float, int]:
+    """(reversals per second / 2, number of reversals) of the motion: the fundamental of a
+    back-and-forth motion, whatever drives it (a torque sine, two tones, a closed loop, a
+    log of ordinary motion).  The velocity is a lightly smoothed difference of the encoder;
+    a reversal needs 5 % of the top speed in each direction."""
+    dt = (t[-1] - t[0]) / (len(t) - 1)
+    w = max(1, int(round(0.005 / dt)))      # 5 ms of smoothing: well below any excitation
+    qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
+    v = np.diff(qs) / dt
+    vmax = float(np.percentile(np.abs(v), 99.5)) if len(v) else 0.0
+    if vmax <= 0:
+        return 0.0, 0
+    n = len(reversals(v, 0.05 * vmax))
+    return n / (2.0 * (t[-1] - t[0])), n
+
+
 def choose_cutoff(fs: float, f_exc: float) -> float:
     """Low-pass cutoff: high enough to keep the presliding transients of a few tens of
     excitation harmonics, low enough to keep double differentiation noise in check."""
@@ -94,13 +127,16 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     t, q = rec.t, rec.q
     dt = rec.dt
     fs = 1.0 / dt
+    # the motion's own back-and-forth rate sets the filters and the held-out segments, so any
+    # excitation works; a torque sine's spectral peak is more precise, and used when it agrees
+    f_motion, n_rev = motion_frequency(t, q)
+    if n_rev < 2 * min_cycles:
+        raise InputError(f"{name}: the joint reverses {n_rev} times in {rec.duration:.4g} s; at least "
+                         f"{2 * min_cycles:g} reversals (sliding back and forth twice) are needed: record a "
+                         f"longer or faster back-and-forth motion")
     f_exc = excitation_frequency(t, rec.tau)
-    if not np.isfinite(f_exc) or f_exc <= 0:
-        raise InputError(f"{name}: no periodic excitation found in tau")
-    cycles = rec.duration * f_exc
-    if cycles < min_cycles:
-        raise InputError(f"{name}: record is {cycles:.2f} excitation cycles long "
-                         f"(excitation {f_exc:.4g} Hz, {rec.duration:.4g} s); at least {min_cycles:g} are needed")
+    if not (np.isfinite(f_exc) and abs(f_exc / f_motion - 1.0) < 0.25):
+        f_exc = f_motion
     fc = choose_cutoff(fs, f_exc) if cutoff is None else float(cutoff)
     if not 0 < fc < 0.5 * fs:
         raise InputError(f"{name}: filter cutoff {fc:g} Hz must lie between 0 and the Nyquist frequency {0.5 * fs:g} Hz")

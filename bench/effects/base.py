@@ -53,6 +53,10 @@ class Effect:
     # a function of position must explain one direction of motion when fitted on the other;
     # only meaningful where the term is not collinear with Fc within one direction
     direction_test: bool = False
+    # the state signals its term depends on (``bench.predictability.FEATURES``): if what the
+    # final model leaves still depends on them, the effect only absorbed part of a structure
+    # it does not explain, and is not credited
+    signals: tuple[str, ...] = ()
 
     def applicable(self, ctx: Context) -> bool:
         return True

@@ -9,6 +9,7 @@ from bench.errors import InputError
 
 class DirectionAsymmetry(Effect):
     name = "direction_asymmetry"
+    signals = ("direction",)
     summary = "friction levels differ by direction"
 
     def variants(self, ctx: Context) -> list[dict]:

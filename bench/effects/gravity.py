@@ -10,6 +10,7 @@ from bench.effects.base import Context, Effect, check_known, explained_text, num
 
 class Gravity(Effect):
     name = "gravity"
+    signals = ("position",)
     summary = "uncompensated a sin q + b cos q"
 
     def applicable(self, ctx: Context) -> bool:

@@ -45,6 +45,7 @@ class PositionSeries(Effect):
     harmonics = 1
     # a function of position must explain one direction of motion when fitted on the other
     direction_test = True
+    signals = ("position",)
 
     @property
     def hyper(self):

@@ -9,6 +9,7 @@ from bench.fitting import Param
 
 class StribeckShape(Effect):
     name = "stribeck_shape"
+    signals = ("velocity",)
     summary = "Stribeck exponent delta"
 
     def variants(self, ctx: Context) -> list[dict]:

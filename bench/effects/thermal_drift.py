@@ -12,6 +12,7 @@ from bench.fitting import Param
 
 class ThermalDrift(Effect):
     name = "thermal_drift"
+    signals = ("time",)
     summary = "friction drifting over the record"
     hyper = ("th_tau",)
 
