@@ -72,12 +72,14 @@ class CrossValidation:
         c = data.c
         step = max(1, int(1.0 / (8.0 * c.cutoff * c.dt_grid)))  # residuals are low-passed
         self.idx = np.nonzero(data.mask)[0][::step]
-        # blocks are the motion segments between velocity reversals (half-cycles of a sine,
-        # but any excitation has them); consecutive pairs (one each way) form the units that
-        # are dealt into interleaved folds
-        vmax = float(np.percentile(np.abs(c.v), 99.5))
-        rev = reversals(c.v, 0.05 * vmax)
-        segment = np.searchsorted(rev, self.idx, side="right")
+        # blocks are motion segments: the half-cycles of a periodic torque (the paper's sine),
+        # else the stretches between velocity reversals, which any excitation has;
+        # consecutive pairs (one each way) are dealt into interleaved folds
+        if c.periodic:
+            segment = np.floor(2 * (c.t[self.idx] - c.t[0]) * c.frequency).astype(int)
+        else:
+            vmax = float(np.percentile(np.abs(c.v), 99.5))
+            segment = np.searchsorted(reversals(c.v, 0.05 * vmax), self.idx, side="right")
         _, self.block = np.unique(segment, return_inverse=True)
         self.n_blocks = int(self.block.max() + 1)
         pair = self.block // 2

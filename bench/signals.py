@@ -39,6 +39,7 @@ class Conditioned:
     tau: np.ndarray         # applied torque, low-passed
     cutoff: float           # Hz, of the low-pass
     frequency: float        # Hz, the excitation's fundamental
+    periodic: bool          # the torque is periodic at ``frequency`` (else: the motion's rate)
     sos: np.ndarray         # the low-pass, designed for the grid rate
 
     @property
@@ -135,7 +136,8 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
                          f"{2 * min_cycles:g} reversals (sliding back and forth twice) are needed: record a "
                          f"longer or faster back-and-forth motion")
     f_exc = excitation_frequency(t, rec.tau)
-    if not (np.isfinite(f_exc) and abs(f_exc / f_motion - 1.0) < 0.25):
+    periodic = bool(np.isfinite(f_exc) and abs(f_exc / f_motion - 1.0) < 0.25)
+    if not periodic:
         f_exc = f_motion
     fc = choose_cutoff(fs, f_exc) if cutoff is None else float(cutoff)
     if not 0 < fc < 0.5 * fs:
@@ -164,7 +166,7 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=v_mid, q_mid=0.5 * (q[1:] + q[:-1]),
                     t_mid=0.5 * (t[1:] + t[:-1]), decim=decim, t=box_average(t, decim),
                     q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
-                    frequency=f_exc, sos=sos)
+                    frequency=f_exc, periodic=periodic, sos=sos)
     c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(v_raw), c.lowpass(a_raw), c.lowpass(tau_raw)
     return c
 
