@@ -29,6 +29,7 @@ class Analysis:
     # --- the JSON contract -------------------------------------------------------------------
     def report(self) -> dict:
         doc = self.ident.report()
+        doc.update(self.reading())
         if self.diagnosis is None:
             return doc
         d = self.diagnosis
@@ -73,6 +74,26 @@ class Analysis:
             data = self.ident.data
             d.final_predictability = assess_predictability(data.c, data.friction - d.contexts[-1].model, d.cv)
         return d.final_predictability
+
+    def reading(self) -> dict:
+        """What reading did to the file: format and columns, unit conversions to SI,
+        resampling and segments (used: with scored samples)."""
+        r = self.record.reading
+        if not r:
+            return {}
+        c, mask = self.ident.data.c, self.ident.data.mask
+        resampling = dict(r.get("resampling", {}))
+        if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
+            resampling["segments"] = [dict(s, scored=bool(mask[a:b].any()))
+                                      for s, (a, b) in zip(resampling["segments"], c.grid_segments)]
+        return {"input": {"format": r.get("format"), "columns": r.get("columns"),
+                          "velocity_from": c.velocity_source},
+                "units": {"si": True, "conversions": r.get("units", {})},
+                "resampling": resampling}
+
+    def write_residuals(self, path: Path) -> Path:
+        from bench.residual_csv import write_residuals
+        return write_residuals(self, path)
 
     # --- pictures ---------------------------------------------------------------------------
     def write_plots(self, directory: Path) -> dict:
