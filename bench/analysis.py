@@ -8,10 +8,13 @@ import html
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from bench import plots
 from bench.diagnosis import Diagnosis, diagnose, drop_absorbers
 from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
+from bench.perfect_model import replay
 from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.residuals import breakdown
@@ -63,7 +66,7 @@ class Analysis:
         data = self.ident.data
         floor = noise_floor(data.c, self.record.tau, self.record.q, self.ident.inertia, data.mask)
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor,
-                                    self.predictability(), lugre["Fc"])
+                                    self.predictability(), lugre["Fc"], d.replay_rms)
         return doc
 
     def predictability(self) -> dict:
@@ -148,13 +151,16 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
 
 
 def _diagnose(ident: Identification, rec: Record, add):
-    diag = diagnose(ident.data, ident.result, rec.meta, ident.inertia, add=add, auto=not add)
+    data = ident.data
+    twin, twin_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff)
+    diag = diagnose(data, ident.result, rec.meta, ident.inertia, add=add, auto=not add, twin=twin)
+    diag.replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
     if add:
         return diag
 
     def leftover(residual):
-        p = diag.final_predictability = assess_predictability(ident.data.c, residual, diag.cv)
-        return p["relies_on"] if structured(p, diag.model.values["Fc"]) else []
+        p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)
+        return p["relies_on"] if structured(p, diag.model.values["Fc"], diag.replay_rms) else []
     return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
 
 

@@ -1,0 +1,60 @@
+"""What would the residual look like if the model were exactly right?
+
+Not every structured residual is missing physics: the measurement chain leaves its own.  A
+coarse encoder turns a creeping joint into a staircase, and the model, driven by that
+staircase's velocity near every reversal, errs the same way at every reversal; sampling and
+filtering leave a trace too.  Those errors are deterministic functions of the motion, so a
+learner on the joint's state predicts them as well as it predicts physics.
+
+So the record is replayed through a perfect model: the measured motion, smoothed, is taken as
+the truth; the identified model gives the friction along it and eq. 5 the torque that would
+have moved the joint so; the motion is quantised at the record's own encoder resolution; and
+the result goes through the same conditioning and comparison.  What that residual holds is
+what a perfect model leaves on this record with this encoder: a floor for "structured".
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from bench.fitting import LUGRE_KEYS, FitData, predict
+from bench.lugre import LuGreParams, model_friction
+from bench.records import Record
+from bench.signals import filtfilt, second_difference
+
+
+def encoder_resolution(q: np.ndarray) -> float:
+    """The encoder count, when the positions sit on a grid (else 0: not quantised)."""
+    d = np.abs(np.diff(q))
+    d = d[d > 0]
+    if len(d) < 10:
+        return 0.0
+    res = float(np.percentile(d, 1))
+    steps = np.abs(q - q[0]) / res
+    return res if np.mean(np.abs(steps - np.round(steps)) < 0.02) > 0.98 else 0.0
+
+
+def replay(rec: Record, data: FitData, values: dict, inertia: float, cutoff: float,
+           name: str = "record") -> tuple[FitData, np.ndarray]:
+    """The record replayed through the identified LuGre model (see the module docstring).
+    Returns the replay's fit data and its residual against the same model."""
+    from bench.identify import prepare
+    c = data.c
+    sos = signal.butter(2, min(c.cutoff, 0.4 / c.dt), fs=1.0 / c.dt, output="sos")
+    params = LuGreParams(**{k: values[k] for k in LUGRE_KEYS}, delta=values.get("delta", 1.0))
+    q_true = np.empty_like(rec.q)
+    tau = np.empty_like(rec.q)
+    for a, b in rec.segment_bounds():
+        qs = filtfilt(sos, rec.q[a:b])
+        F, _ = model_friction(params, qs, c.dt)
+        q_true[a:b] = qs
+        tau[a:b] = inertia * second_difference(qs, c.dt) + F
+    res = encoder_resolution(rec.q)
+    q = np.round(q_true / res) * res if res > 0 else q_true
+    meta = dict(rec.meta, torque_hold="sample")
+    twin = Record(t=rec.t, tau=tau, q=q, meta=meta, segments=rec.segments, step=rec.step)
+    twin_data, _ = prepare(twin, inertia, cutoff, name, "sample")
+    twin_data.mask = data.mask if len(data.mask) == len(twin_data.mask) else twin_data.mask
+    twin_data.z0 = data.z0
+    lugre = {k: values[k] for k in LUGRE_KEYS} | {"delta": values.get("delta", 1.0)}
+    return twin_data, twin_data.friction - predict(twin_data, lugre)

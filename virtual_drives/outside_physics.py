@@ -1,0 +1,76 @@
+"""Physics the effect library does not have, for testing that the diagnosis never tells a wrong
+story: a record with one of these must end "unexplained", with no library effect credited.
+
+Each kind is a torque the joint feels on top of the commanded one, as a function of the
+commanded torque and the joint's state, at magnitudes drawn from a seed relative to the
+joint's own friction and excitation:
+
+- ``saturating_torque_constant``: the motor's torque constant falls at high current, the joint
+  feels tau (1 - k (tau / tau_max)^2) (k 0.1-0.2).  Under a sine it is a cubic of the phase, so a
+  position series can pass for it.
+- ``nonlinear_viscous``: viscous friction grows like |v|^beta (beta 0.4-0.6) instead of
+  linearly, an extra term c (|v|^beta - (|v| / v_ref)^1 v_ref^beta) sgn v that vanishes at 0 and
+  at the reference speed, 5-15 % of Fc in between.
+- ``position_spring``: a cable carrier or a spring pulls the joint towards one end of its
+  travel, k (q - q_0), 4-10 % of Fc at the ends (not periodic, not gravity's sine).
+
+The joint is stepped one control period at a time (``VirtualJoint``), the extra torque held
+over the period from its state at the start: these terms change slowly against 1 ms.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bench.records import Record
+from virtual_drives.joint import JointSpec, VirtualJoint, quantise, sine_torque
+from virtual_drives.scenarios import travel_of
+
+KINDS = ("saturating_torque_constant", "nonlinear_viscous", "position_spring")
+
+
+def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0,
+                   dt: float = 1e-3) -> tuple[Record, str]:
+    """A record of ``spec`` under its sine test with physics ``kind`` hidden.  Returns the
+    record and a description of what was hidden."""
+    rng = np.random.default_rng([seed, 29])
+    A, f = spec.excitation
+    n = int(round(duration / dt))
+    t = np.arange(n) * dt
+    cmd = sine_torque(A, f, t)
+    Fc = spec.friction.Fc
+    joint = VirtualJoint(spec, dt=dt, seed=seed)
+    lo, hi = spec.position_limits
+    mid = 0.5 * (lo + hi)
+    travel = travel_of(spec, duration)
+    v_ref = 2.0 * math.pi * f * 0.5 * travel          # the sine test's top speed, roughly
+    if kind == "saturating_torque_constant":
+        k = rng.uniform(0.1, 0.2)
+        text = f"saturating torque constant, k = {k:.3f}"
+        extra = lambda q, v, tau: -k * tau * (tau / A) ** 2  # noqa: E731
+    elif kind == "nonlinear_viscous":
+        beta = rng.uniform(0.4, 0.6)
+        c = rng.uniform(0.05, 0.15) * Fc / (1.0 - beta ** (beta / (1.0 - beta)) * (1 - beta))
+        text = f"viscous friction ~ |v|^{beta:.2f}, {c / Fc:.2f} Fc"
+
+        def extra(q, v, tau):
+            x = abs(v) / v_ref
+            return -c * (x ** beta - x) * math.copysign(1.0, v) if v != 0 else 0.0
+    elif kind == "position_spring":
+        k = rng.uniform(0.04, 0.10) * Fc / (0.5 * travel)
+        q0 = mid + rng.uniform(-0.3, 0.3) * travel
+        text = f"spring towards {q0:.4g}, {k:.4g} per unit of travel"
+        extra = lambda q, v, tau: -k * (q - q0)  # noqa: E731
+    else:
+        raise ValueError(f"unknown kind {kind!r}; known: {', '.join(KINDS)}")
+    q = np.empty(n)
+    for i in range(n):
+        s = joint.state
+        q[i] = s.q
+        joint.advance(cmd[i] + extra(s.q, s.v, cmd[i]))
+    tau = cmd + spec.torque_noise * joint.rng.standard_normal(n)
+    meta = {"inertia": spec.inertia, "joint_type": spec.joint_type, "position_unit": spec.position_unit,
+            "torque_unit": spec.torque_unit, "torque_hold": "zoh", "joint": spec.name,
+            "source": "virtual", "seed": seed, "outside_library": text}
+    return Record(t=t, tau=tau, q=quantise(q, spec.encoder_resolution), meta=meta), text
