@@ -59,10 +59,12 @@ async function submit(ctx, form) {
       const target = fieldOf(fe.field);
       if (target) { target.textContent = fe.message; placed = true; }
     }
-    const m = /^([a-z_.]+): (.*)$/.exec(e.message);       // "joints: give at least one joint id"
-    const target = !placed && m ? fieldOf(m[1]) : null;
-    if (target) target.textContent = m[2];
-    else $("#start-msg").textContent = e.message;
+    if (!placed) {
+      const m = /^([a-z_.]+): (.*)$/.exec(e.message);     // "joints: give at least one joint id"
+      const target = m ? fieldOf(m[1]) : null;
+      if (target) target.textContent = m[2];
+      else $("#start-msg").textContent = e.message;       // 409 (busy, e-stop), 403, ...
+    }
   } finally {
     button.disabled = false;
   }
