@@ -143,6 +143,7 @@ async def page_load(url: str, key: str, run_id: str, pages: int, joints: list[st
     /runs/{id} + the event stream), odd ones show the bench (GET /joints/{id} per joint)."""
     poll = page_pattern()
     lat: list[float] = []
+    by_kind: dict[str, list[float]] = {}
     errors = 0
     sse_events = 0
     stop_at = time.monotonic() + seconds
@@ -157,6 +158,7 @@ async def page_load(url: str, key: str, run_id: str, pages: int, joints: list[st
             except httpx.HTTPError:
                 ok = False
             lat.append(time.perf_counter() - t0)
+            by_kind.setdefault(path.split("/")[1], []).append(lat[-1])
             errors += not ok
 
         async def every(period_ms: float, offset: float, paths: list[str]):
@@ -191,7 +193,7 @@ async def page_load(url: str, key: str, run_id: str, pages: int, joints: list[st
             else:
                 tasks.append(every(poll["joints_ms"], offset, [f"/joints/{j}" for j in joints]))
         await asyncio.gather(*tasks)
-    return {"latencies": lat, "errors": errors, "sse_events": sse_events}
+    return {"latencies": lat, "errors": errors, "sse_events": sse_events, "by_kind": by_kind}
 
 
 def overruns(c: httpx.Client) -> int:
@@ -259,6 +261,7 @@ def main() -> None:
             # drifts, and adjacent phases see about the same background
             base, loaded, rounds = 0, 0, []
             res = {"latencies": [], "errors": 0, "sse_events": 0}
+            by_kind: dict[str, list[float]] = {}
             for _ in range(args.rounds):
                 o0 = overruns(c)
                 time.sleep(args.seconds)
@@ -272,6 +275,8 @@ def main() -> None:
                 rounds.append(f"{o1 - o0} / {o2 - o1}")
                 for k in res:
                     res[k] += part[k]
+                for k, v in part.get("by_kind", {}).items():
+                    by_kind.setdefault(k, []).extend(v)
             still = c.get(f"/runs/{run_id}").json()["state"]
             c.post(f"/runs/{run_id}/cancel")
             final = wait_state(c, run_id, ("succeeded", "failed", "cancelled", "interrupted"), 120)
@@ -326,6 +331,10 @@ def main() -> None:
               f"| {len(lat)} ({res['errors']} errors) | |")
     print(f"| latency p50 / p90 / p99 / max [ms] | {pct(lat, 50):.1f} / {pct(lat, 90):.1f} / {pct(lat, 99):.1f} / "
           f"{max(lat):.1f} | p99 <= 50 |")
+    for kind, xs in sorted(by_kind.items()):
+        xs = [x * 1e3 for x in xs]
+        print(f"| latency of /{kind}... p50 / p99 / max [ms], n={len(xs)} | {pct(xs, 50):.1f} / {pct(xs, 99):.1f} / "
+              f"{max(xs):.1f} | |")
     print(f"| SSE events received during load | {res['sse_events']} | |")
     # (no CPU-per-request row: the realtime pacer yield-spins the end of every period, so the
     # server process fills its core either way and CPU time says nothing about the requests)
