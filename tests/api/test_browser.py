@@ -78,11 +78,17 @@ def page(browser, server):
     ctx.set_default_timeout(20_000)
     pg = ctx.new_page()
     errors: list[str] = []
+    urls: list[str] = []
     pg.on("pageerror", lambda e: errors.append(str(e)))
+    ctx.on("request", lambda r: urls.append(r.url))
     pg.goto(server.url + "/")
     yield pg
     ctx.close()
     assert not errors, f"JavaScript errors on the page: {errors}"
+    # the page asked nothing of any other host, and never put a key into a URL
+    assert all(u.startswith((server.url + "/", "blob:", "data:", "about:")) for u in urls), urls
+    keys = (server.admin, server.operator, server.observer)
+    assert not [u for u in urls if any(k in u for k in keys)]
 
 
 def login(page, key: str, role: str) -> None:
@@ -141,6 +147,8 @@ def test_browser_every_view_fits_the_tablet_with_the_estop_in_reach(page, server
 
 def test_browser_identify_live_then_report_and_trace(page, server):
     login(page, server.operator, "operator")
+    page.reload()                                   # the key is entered once per tab
+    pw.expect(page.locator("#who")).to_contain_text("operator")
     page.click("nav button[data-view=start]")
     page.check("input[name=joint][value=j1]")
     page.fill("input[name=search_max_trials]", "99")
