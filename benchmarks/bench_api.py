@@ -262,6 +262,7 @@ def main() -> None:
             base, loaded, rounds = 0, 0, []
             res = {"latencies": [], "errors": 0, "sse_events": 0}
             by_kind: dict[str, list[float]] = {}
+            measured = 0
             for _ in range(args.rounds):
                 o0 = overruns(c)
                 time.sleep(args.seconds)
@@ -271,6 +272,9 @@ def main() -> None:
                 else:
                     part = asyncio.run(load(url, key, run_id, args.clients, args.poll, args.seconds))
                 o2 = overruns(c)
+                if c.get(f"/runs/{run_id}").json()["state"] != "running":
+                    break           # the calibration ended in this round: no control loop to compare
+                measured += 1
                 base, loaded = base + o1 - o0, loaded + o2 - o1
                 rounds.append(f"{o1 - o0} / {o2 - o1}")
                 for k in res:
@@ -318,7 +322,10 @@ def main() -> None:
           f"{f', nice {args.client_nice}' if args.client_nice else ''}\n")
     print("| metric | value | target |")
     print("|---|---|---|")
-    total = args.rounds * args.seconds
+    if measured < args.rounds:
+        print(f"**the calibration ended ({still}) in round {measured + 1} of {args.rounds}: only {measured} "
+              f"round(s) counted**\n")
+    total = measured * args.seconds
     periods = int(total / 0.001)
     if args.pattern == "page":
         p = page_pattern()

@@ -24,17 +24,15 @@ async function refresh(ctx) {
 function row(ctx, r) {
   const ended = ["succeeded", "failed", "cancelled", "interrupted"].includes(r.state);
   const fail = e => { $("#history-msg").textContent = e.message; };
-  const joint = r.joints[0] || "";
   return el("tr", {"data-run": r.id},
     el("td", {}, el("a", {href: "#", onclick: ev => { ev.preventDefault(); ctx.go("live", r.id); }}, r.id)),
     el("td", {}, r.procedure), el("td", {title: r.error || ""}, r.state), el("td", {}, r.joints.join(", ")),
     el("td", {}, when(r.started)), el("td", {}, r.started ? duration(r.started, r.ended) : "–"),
     el("td", {}, ended ? [
       el("button", {type: "button", class: "report", onclick: () => api.openHtml(`/runs/${r.id}/report`).catch(fail)}, "report"),
-      " ",
-      el("button", {type: "button", class: "csv", onclick: () =>
-        api.download(`/runs/${r.id}/trace.csv?joint=${encodeURIComponent(joint)}`, `${r.id}-${joint}.csv`).catch(fail)},
-        "CSV"),
+      r.joints.map(j => [" ", el("button", {type: "button", class: "csv", "data-joint": j, onclick: () =>
+        api.download(`/runs/${r.id}/trace.csv?joint=${encodeURIComponent(j)}`, `${r.id}-${j}.csv`).catch(fail)},
+        `CSV ${j}`)]),
     ] : ""));
 }
 
