@@ -320,11 +320,11 @@ def main() -> None:
     sched = f"SCHED_FIFO {args.rt_priority}" if args.rt_priority else "normal scheduling"
     print(f"run processes: {sched}; CPUs: {where}; clients on {'the server CPU' if args.client_cpus == 'server' and placement else 'any CPU'}"
           f"{f', nice {args.client_nice}' if args.client_nice else ''}\n")
-    print("| metric | value | target |")
-    print("|---|---|---|")
     if measured < args.rounds:
         print(f"**the calibration ended ({still}) in round {measured + 1} of {args.rounds}: only {measured} "
               f"round(s) counted**\n")
+    print("| metric | value | target |")
+    print("|---|---|---|")
     total = measured * args.seconds
     periods = int(total / 0.001)
     if args.pattern == "page":
