@@ -8,6 +8,7 @@ import * as history from "/static/history.js";
 const VIEWS = {bench, start: run.start, live: run.live, history: history.runs, compare: history.compare};
 const ctx = {role: null, name: null, bench: null, joints: [], estop: null, view: null, go};
 let healthTimer = null;
+let healthGen = 0;      // one polling loop at a time, also across a log-out and log-in
 
 function show(id) {
   for (const s of document.querySelectorAll("section.view")) s.hidden = s.id !== "view-" + id;
@@ -56,6 +57,7 @@ function logout(message) {
   if (ctx.view && VIEWS[ctx.view].leave) VIEWS[ctx.view].leave(ctx);
   ctx.view = null;
   clearTimeout(healthTimer);
+  healthGen++;
   document.body.dataset.role = "";
   $("#nav").hidden = true;
   $("#logout").hidden = true;
@@ -69,16 +71,19 @@ function logout(message) {
 // POLL.health_ms), /estop by whom and which drives it stopped (once per latch).
 async function pollHealth() {
   clearTimeout(healthTimer);
+  const mine = ++healthGen;
   try {
     const h = await api.get("/health");
+    if (mine !== healthGen) return;
     if (h.estop && !(ctx.estop && ctx.estop.active)) showEstop(await api.get("/estop"));
     else if (!h.estop && (!ctx.estop || ctx.estop.active)) showEstop({active: false});
   } catch (e) {
+    if (mine !== healthGen) return;
     if (e.status === 401) return logout("Your key is no longer accepted (revoked?): enter a key.");
     $("#estop-state").textContent = "service unreachable";
     $("#estop-state").className = "pill bad";
   }
-  if (api.session.key) healthTimer = setTimeout(pollHealth, api.POLL.health_ms);
+  if (api.session.key && mine === healthGen) healthTimer = setTimeout(pollHealth, api.POLL.health_ms);
 }
 
 function showEstop(state) {

@@ -5,18 +5,22 @@ import {$, el} from "/static/dom.js";
 import {fmt} from "/static/plot.js";
 
 let timer = null;
+let gen = 0;            // the newest refresh; an older one still in flight neither renders nor reschedules
 const errors = {};     // joint -> the API's answer to the last switch that failed
 
 export function enter(ctx) { refresh(ctx); }
-export function leave() { clearTimeout(timer); timer = null; }
+export function leave() { clearTimeout(timer); timer = null; gen++; }
 
 async function refresh(ctx) {
   clearTimeout(timer);
+  const mine = ++gen;
   try {
     const joints = await Promise.all(ctx.joints.map(j => api.get(`/joints/${encodeURIComponent(j)}`)));
+    if (mine !== gen) return;
     render(ctx, joints);
     $("#joints-msg").textContent = "";
   } catch (e) {
+    if (mine !== gen) return;
     $("#joints-msg").textContent = e.message;
   }
   if (ctx.view === "bench") timer = setTimeout(() => refresh(ctx), api.POLL.joints_ms);

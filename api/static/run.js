@@ -116,6 +116,7 @@ async function follow(ctx, runId) {
   const w = watch = {id: runId, abort: new AbortController(), timer: null, info: null, last: -1, ended: false};
   $("#live-id").textContent = runId;
   $("#stages").replaceChildren();
+  $("#results").replaceChildren();
   $("#trials tbody").replaceChildren();
   $("#live-msg").textContent = "";
   let info;
@@ -189,6 +190,13 @@ function onEvent(w, ev) {
     case "stage": addStage(d); break;
     case "retry": addStage({joint: d.joint, stage: d.stage, status: `retry: ${d.reason}`}); break;
     case "trial": addTrial(d); break;
+    case "model":
+      addResult(`${d.joint} model ${d.model_id}: ` +
+        Object.entries(d.parameters || {}).map(([k, v]) => `${k} ${fmt(v)}`).join(" · "));
+      break;
+    case "tracking":
+      addResult(`${d.joint} tracking, ${d.variant}: rms error ${fmt(d.rms_error)}, max ${fmt(d.max_error)}`);
+      break;
     case "end":
       api.get(`/runs/${w.id}`).then(info => showInfo(w, info)).catch(() => {});
       break;
@@ -201,6 +209,10 @@ function addStage(d) {
   const old = document.querySelector(`#stages li[data-key="${CSS.escape(key)}"]`);
   if (old) old.textContent = text;
   else $("#stages").append(el("li", {"data-key": key}, text));
+}
+
+function addResult(text) {
+  $("#results").append(el("li", {}, text));
 }
 
 function addTrial(t) {

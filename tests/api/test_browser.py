@@ -173,6 +173,7 @@ def test_browser_identify_live_then_report_and_trace(page, server):
     assert page.locator("#stages li").count() >= 1
     pw.expect(page.locator("#live-state")).to_contain_text("succeeded", timeout=RUN_TIMEOUT_MS)
     pw.expect(page.locator("#live-pct")).to_have_text("100 %")
+    pw.expect(page.locator("#results")).to_contain_text("j1 model")
     with server.client(server.observer) as c:
         run = c.get(f"/runs/{run_id}").json()
     assert run["state"] == "succeeded" and run["procedure"] == "identify", run
@@ -195,6 +196,18 @@ def test_browser_identify_live_then_report_and_trace(page, server):
     row = page.locator(f"#history tr[data-run='{run_id}']")
     pw.expect(row).to_contain_text("succeeded")
     pw.expect(row).to_contain_text(" s")
+    # the operator switches j1's compensation on with its new model, and off again
+    page.click("nav button[data-view=bench]")
+    switch = page.locator(".comp-switch[data-joint=j1]")
+    pw.expect(page.locator("#joints tr[data-joint=j1]")).to_contain_text(run["result"]["joints"]["j1"]["model_id"])
+    with server.client(server.observer) as c:
+        for enabled in (True, False):
+            switch.click()
+            pw.expect(switch).to_be_checked(checked=enabled)
+            deadline = time.monotonic() + 10
+            while c.get("/joints/j1").json()["compensation"]["enabled"] is not enabled:
+                assert time.monotonic() < deadline, "the switch did not reach the API"
+                time.sleep(0.1)
 
 
 def test_browser_compares_two_identifications_of_a_joint(page, server):
