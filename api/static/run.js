@@ -116,7 +116,7 @@ async function follow(ctx, runId) {
   const w = watch = {id: runId, abort: new AbortController(), timer: null, info: null, last: -1, ended: false};
   $("#live-id").textContent = runId;
   $("#stages").replaceChildren();
-  $("#results").replaceChildren();
+  $("#results").replaceChildren(el("li", {class: "muted"}, "none yet"));
   $("#trials tbody").replaceChildren();
   $("#live-msg").textContent = "";
   let info;
@@ -212,6 +212,7 @@ function addStage(d) {
 }
 
 function addResult(text) {
+  for (const old of document.querySelectorAll("#results li.muted")) old.remove();
   $("#results").append(el("li", {}, text));
 }
 
