@@ -1,8 +1,7 @@
 // The bench view: every joint's state, transport, limits, drive, model and compensation
 // switch (operators may flip it), refreshed every POLL.joints_ms while shown.
 import * as api from "/static/api.js";
-import {$, el} from "/static/dom.js";
-import {fmt} from "/static/plot.js";
+import {$, el, fmt} from "/static/dom.js";
 
 let timer = null;
 let gen = 0;            // the newest refresh; an older one still in flight neither renders nor reschedules

@@ -25,3 +25,10 @@ export function duration(a, b) {
   const s = Math.max(0, (b || Date.now() / 1000) - a);
   return s < 120 ? `${s.toFixed(1)} s` : `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`;
 }
+
+// numbers as a technician reads them: 4 significant digits, exponent when very large or small
+export function fmt(v) {
+  if (typeof v !== "number" || !isFinite(v)) return "–";
+  const a = Math.abs(v);
+  return a !== 0 && (a >= 1e5 || a < 1e-3) ? v.toExponential(2) : String(+v.toPrecision(4));
+}

@@ -1,8 +1,7 @@
 // Run history (state, joints, start, duration; watch, report, trace) and two identification
 // runs of one joint side by side.
 import * as api from "/static/api.js";
-import {$, el, when, duration} from "/static/dom.js";
-import {fmt} from "/static/plot.js";
+import {$, el, fmt, when, duration} from "/static/dom.js";
 
 const PARAMS = ["Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2"];
 

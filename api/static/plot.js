@@ -1,6 +1,7 @@
 // Live plot of one joint's position, velocity and torque: three stacked strips on one
 // canvas, a shared time axis over the last WINDOW seconds, each strip scaled to its data.
 // Plain canvas, no library: the page must work without any network but the bench's own.
+import {fmt} from "/static/dom.js";
 
 const WINDOW = 30;          // s of history shown
 const MAX_POINTS = 3000;    // per joint: 5 min at the page's 10 Hz sample rate
@@ -96,10 +97,4 @@ export class LivePlot {
     const end = `${t1.toFixed(1)} s`;
     g.fillText(end, w - right - g.measureText(end).width, h - 4);
   }
-}
-
-export function fmt(v) {
-  if (typeof v !== "number" || !isFinite(v)) return "–";
-  const a = Math.abs(v);
-  return a !== 0 && (a >= 1e5 || a < 1e-3) ? v.toExponential(2) : String(+v.toPrecision(4));
 }

@@ -2,8 +2,8 @@
 // progress, stages, excitation trials and their decisions, a plot of q, v and τ from the
 // event stream; cancel; the report and trace once it has ended.
 import * as api from "/static/api.js";
-import {$, el} from "/static/dom.js";
-import {LivePlot, fmt} from "/static/plot.js";
+import {$, el, fmt} from "/static/dom.js";
+import {LivePlot} from "/static/plot.js";
 
 const FINAL = ["succeeded", "failed", "cancelled", "interrupted"];
 const NUMBERS = ["seed", "search_max_trials", "search_cycles", "tracking_period", "tracking_cycles"];
