@@ -28,6 +28,7 @@ class Analysis:
     # --- the JSON contract -------------------------------------------------------------------
     def report(self) -> dict:
         doc = self.ident.report()
+        doc.update(self.reading())
         if self.diagnosis is None:
             return doc
         d = self.diagnosis
@@ -62,6 +63,26 @@ class Analysis:
         floor = noise_floor(data.c, self.record.tau, self.record.q, self.ident.inertia, data.mask)
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor)
         return doc
+
+    def reading(self) -> dict:
+        """What reading did to the file: format and columns, unit conversions to SI,
+        resampling and segments (used: with scored samples)."""
+        r = self.record.reading
+        if not r:
+            return {}
+        c, mask = self.ident.data.c, self.ident.data.mask
+        resampling = dict(r.get("resampling", {}))
+        if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
+            resampling["segments"] = [dict(s, scored=bool(mask[a:b].any()))
+                                      for s, (a, b) in zip(resampling["segments"], c.grid_segments)]
+        return {"input": {"format": r.get("format"), "columns": r.get("columns"),
+                          "velocity_from": c.velocity_source},
+                "units": {"si": True, "conversions": r.get("units", {})},
+                "resampling": resampling}
+
+    def write_residuals(self, path: Path) -> Path:
+        from bench.residual_csv import write_residuals
+        return write_residuals(self, path)
 
     # --- pictures ---------------------------------------------------------------------------
     def write_plots(self, directory: Path) -> dict:

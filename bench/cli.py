@@ -89,9 +89,15 @@ def simulate(
 
 @app.command()
 def analyze(
-    file: Path = typer.Argument(..., help="record CSV (t, tau, q[, qd]) with # metadata"),
-    inertia: Optional[float] = typer.Option(None, help="M_jj; overrides the record's metadata"),
+    file: Path = typer.Argument(..., help="record: CSV (any delimiter; # metadata lines), Parquet or MATLAB .mat"),
+    columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
+    inertia: Optional[float] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction"),
+    joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
+    position_unit: Optional[str] = typer.Option(None, help="rad, deg, rev (revolute); m, mm, um (prismatic)"),
+    torque_unit: Optional[str] = typer.Option(None, help="N*m, mN*m, kN*m, N*mm (revolute); N, mN, kN (prismatic)"),
+    torque_hold: Optional[str] = typer.Option(None, help="zoh (commands held), sample (sampled) or auto"),
     json_out: Optional[Path] = typer.Option(None, "--json", help="write the JSON report here"),
+    residuals: Optional[Path] = typer.Option(None, help="write t, measured, baseline, final, held_out at the file's own timestamps (CSV)"),
     plots: Optional[Path] = typer.Option(None, help="directory for PNG plots"),
     report: Optional[Path] = typer.Option(None, help="write an HTML report (with plots) here"),
     add: Optional[str] = typer.Option(None, help="refit with these effects, comma-separated"),
@@ -100,9 +106,12 @@ def analyze(
 ):
     """Identify the LuGre model of a record and diagnose what it misses."""
     from bench.analysis import analyze_record
-    from bench.records import read_csv
+    from bench.readers import read_record
     try:
-        rec = read_csv(file)
+        if inertia is not None and not inertia >= 0:
+            raise BenchError(f"--inertia must be >= 0 (0: the torque column is the friction), got {inertia:g}")
+        rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
+                          torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
         result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))
@@ -113,6 +122,8 @@ def analyze(
         doc = result.report()
         if json_out is not None:
             json_out.write_text(json.dumps(doc, indent=2))
+        if residuals is not None:
+            result.write_residuals(residuals)
     except BenchError as e:
         fail(str(e))
     except OSError as e:

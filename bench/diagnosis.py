@@ -120,6 +120,7 @@ class Diagnosis:
     steps: list[Step]
     remaining: list[Screen]        # last screening of effects not added
     contexts: list[Context]        # model state before each step and at the end
+    cv: CrossValidation | None = None   # the held-out scoring every step used
 
     def entries(self) -> list[dict]:
         """Ranked diagnosis list of the JSON contract: the effects of the final model in the
@@ -248,7 +249,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         cur = _backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms)
         contexts.append(cur.ctx)
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
-                     remaining=screens, contexts=contexts)
+                     remaining=screens, contexts=contexts, cv=cv)
 
 
 def _without(data: FitData, model: Model, name: str) -> Model:

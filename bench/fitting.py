@@ -82,10 +82,7 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     else:  # plain LuGre: skip the term evaluation
         add = None
         level = visc = _ones(len(c.v_mid))
-    F, _ = friction_trace(c.v_mid, c.dt, data.z0, lugre["Fc"], lugre["Fs"], lugre["alpha"],
-                          lugre["delta"], lugre["sigma0"], lugre["sigma1"], lugre["sigma2"],
-                          level, visc)
-    F = interval_to_samples(F)
+    F = _lugre_samples(data, lugre, level, visc)
     out = c.lowpass(F if add is None else F + add)
     if extra["inertia_error"]:
         out = out + extra["inertia_error"] * c.a
@@ -94,6 +91,26 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # the difference (the filters are linear and time-invariant, so delay the filtered tau)
         out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
     return out
+
+
+def _lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray) -> np.ndarray:
+    """LuGre friction at the full-rate samples, simulated segment by segment: the bristle
+    state restarts at each segment (a gap hides what it did), from the friction estimate at
+    the segment's start as for the first (``data.z0``)."""
+    c = data.c
+    args = (p["Fc"], p["Fs"], p["alpha"], p["delta"], p["sigma0"], p["sigma1"], p["sigma2"])
+    if len(c.segments) == 1:
+        F, _ = friction_trace(c.v_mid, c.dt, data.z0, *args, level, visc)
+        return interval_to_samples(F)
+    parts = []
+    for k, ((a, b), (g, _)) in enumerate(zip(c.interval_segments, c.grid_segments)):
+        z0 = data.z0
+        if k:
+            lim = p["Fs"] / p["sigma0"]
+            z0 = float(np.clip(data.friction[min(g, len(data.friction) - 1)] / p["sigma0"], -lim, lim))
+        F, _ = friction_trace(c.v_mid[a:b], c.dt, z0, *args, level[a:b], visc[a:b])
+        parts.append(interval_to_samples(F) if b > a else np.zeros(1))
+    return np.concatenate(parts)
 
 
 @dataclass

@@ -59,15 +59,26 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
     M = inertia if inertia is not None else rec.inertia
     if M is None:
         raise InputError(f"{name}: no inertia: give --inertia or an 'inertia' metadata line")
-    if not (M > 0 and math.isfinite(M)):
-        raise InputError(f"{name}: inertia must be a positive number, got {M}")
+    # 0 declares a friction-torque record (tau is the friction): no acceleration term
+    if not (M >= 0 and math.isfinite(M)):
+        raise InputError(f"{name}: inertia must be a positive number (or 0 for a friction-torque record), got {M}")
     c = condition(rec, cutoff=cutoff, name=name, hold=hold)
     F = c.friction(M)
-    n = len(c.t)
-    edge = int(min(n // 10, math.ceil(3.0 / (c.cutoff * c.dt_grid))))
-    start = max(edge, int(0.25 / (c.frequency * c.dt_grid)))
-    mask = np.zeros(n, dtype=bool)
-    mask[start:n - edge] = True
+    mask = np.zeros(len(c.t), dtype=bool)
+    edge = math.ceil(3.0 / (c.cutoff * c.dt_grid))      # the filter's edge transient
+    settle = int(0.25 / (c.frequency * c.dt_grid))      # the bristle start-up
+    if len(c.segments) == 1:
+        n = len(c.t)
+        edge = int(min(n // 10, edge))
+        mask[max(edge, settle):n - edge] = True
+    else:  # split at gaps: each segment has its own filter edges and bristle start
+        for k, (a, b) in enumerate(c.grid_segments):
+            mask[a + (max(edge, settle) if k == 0 else edge):max(b - edge, a)] = True
+    if not mask.any() and len(c.segments) > 1:
+        longest = max(b - a for a, b in c.segments) * c.dt
+        raise InputError(f"{name}: segments too short to analyse after splitting at {len(c.segments) - 1} gaps "
+                         f"(the longest is {longest:.3g} s; each needs more than {2 * edge * c.dt_grid:.3g} s "
+                         "of filter edges): record without long gaps")
     return FitData(c=c, friction=F, mask=mask, z0=0.0), M
 
 

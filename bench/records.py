@@ -34,10 +34,22 @@ class Record:
     q: np.ndarray
     qd: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    # set by resampling (bench.resample): the record is the concatenation of evenly sampled
+    # segments cut at gaps, ``segments`` their start indices, ``step`` their common period
+    segments: list[int] | None = None
+    step: float | None = None
+    reading: dict = field(default_factory=dict)   # what reading did: format, units, resampling
 
     @property
     def dt(self) -> float:
+        if self.step is not None:
+            return float(self.step)
         return float((self.t[-1] - self.t[0]) / (len(self.t) - 1))
+
+    def segment_bounds(self) -> list[tuple[int, int]]:
+        """[(start, stop)] of the evenly sampled segments (one, unless split at gaps)."""
+        starts = list(self.segments or [0])
+        return list(zip(starts, starts[1:] + [len(self.t)]))
 
     @property
     def duration(self) -> float:
@@ -138,6 +150,8 @@ def validate(rec: Record, name: str = "record") -> None:
         if not np.all(np.isfinite(arr)):
             raise InputError(f"{name}: column '{col}' contains NaN or infinite values")
     d = np.diff(rec.t)
+    if rec.segments:  # steps across a gap between segments are not samples
+        d = np.delete(d, np.asarray(rec.segments[1:], dtype=int) - 1)
     if np.any(d <= 0):
         i = int(np.argmax(d <= 0))
         raise InputError(f"{name}: time is not increasing at data row {i + 2} (t={rec.t[i + 1]:g})")
@@ -155,7 +169,8 @@ def validate(rec: Record, name: str = "record") -> None:
             mv = float(m)
         except (TypeError, ValueError):
             raise InputError(f"{name}: metadata inertia is not a number: {m!r}") from None
-        if not (mv > 0 and math.isfinite(mv)):
-            raise InputError(f"{name}: metadata inertia must be positive, got {m}")
+        # 0 declares a friction-torque record: tau already is the friction (torque-sensing arms)
+        if not (mv >= 0 and math.isfinite(mv)):
+            raise InputError(f"{name}: metadata inertia must be positive (or 0 for a friction-torque record), got {m}")
     if np.ptp(rec.q) == 0:
         raise InputError(f"{name}: position is constant: the joint never moved")

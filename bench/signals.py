@@ -40,6 +40,14 @@ class Conditioned:
     cutoff: float           # Hz, of the low-pass
     frequency: float        # Hz, the excitation's fundamental
     sos: np.ndarray         # the low-pass, designed for the grid rate
+    # evenly sampled segments [(start, stop)) of the full-rate arrays (one unless the record
+    # was split at gaps); every filter runs per segment, nothing crosses a gap
+    segments: list = None
+    velocity_source: str = "q"
+
+    def __post_init__(self):
+        if self.segments is None:
+            self.segments = [(0, len(self.t_full))]
 
     @property
     def dt_grid(self) -> float:
@@ -47,7 +55,29 @@ class Conditioned:
 
     def lowpass(self, x_full: np.ndarray) -> np.ndarray:
         """Full-rate signal -> the comparison grid (CIC decimation, then zero-phase low-pass)."""
-        return signal.sosfiltfilt(self.sos, box_average(x_full, self.decim))
+        if len(self.segments) == 1:
+            return signal.sosfiltfilt(self.sos, box_average(x_full, self.decim))
+        return np.concatenate([filtfilt(self.sos, box_average(x_full[a:b], self.decim))
+                               for a, b in self.segments])
+
+    def decimate(self, x_full: np.ndarray) -> np.ndarray:
+        """Full-rate signal -> the grid without the low-pass (e.g. the time)."""
+        return np.concatenate([box_average(x_full[a:b], self.decim) for a, b in self.segments])
+
+    @property
+    def interval_segments(self) -> list[tuple[int, int]]:
+        """Segments of the interval (``*_mid``) arrays: one interval fewer per segment."""
+        return [(a - k, b - k - 1) for k, (a, b) in enumerate(self.segments)]
+
+    @property
+    def grid_segments(self) -> list[tuple[int, int]]:
+        """Segments of the comparison grid."""
+        out, at = [], 0
+        for a, b in self.segments:
+            n = len(box_average(np.zeros(b - a), self.decim))
+            out.append((at, at + n))
+            at += n
+        return out
 
     def friction(self, inertia: float) -> np.ndarray:
         """Friction estimate of eq. 5 with inertia M, on the grid."""
@@ -107,30 +137,78 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     # grid rate: at least 10 samples per cutoff period
     decim = max(1, int(fs / (10.0 * fc)))
     sos = signal.butter(4, fc, fs=fs / decim, output="sos")
-    if rec.qd is not None:
-        v_raw = np.asarray(rec.qd, dtype=float)
+    # the velocity that drives the model keeps more bandwidth than the comparison filter:
+    # the bristle state integrates it, so quantisation noise averages out
+    sos_v = signal.butter(2, min(4.0 * fc, 0.4 * fs), fs=fs, output="sos")
+    bounds = rec.segment_bounds()
+    use_qd, source = velocity_source(rec, dt, name)
+    # 'torque_hold: sample' marks torques sampled at t; 'zoh' commands held until the next
+    # sample (a digital drive); 'auto' or no key: zoh here, and identify() checks the data
+    hold = hold or torque_hold(rec, name)
+    if hold == "auto":
+        hold = "zoh"
+    friction_column = rec.inertia == 0.0   # tau is the friction, sampled: no hold, no q''
+    pieces = [_segment_signals(t[a:b], q[a:b], None if not use_qd else rec.qd[a:b], rec.tau[a:b], dt,
+                               sos_v, hold == "zoh" and not use_qd and not friction_column)
+              for a, b in bounds]
+    cat = (lambda k: pieces[0][k]) if len(pieces) == 1 else (lambda k: np.concatenate([p[k] for p in pieces]))
+    c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=cat("v_mid"), q_mid=cat("q_mid"),
+                    t_mid=cat("t_mid"), decim=decim, t=np.empty(0),
+                    q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
+                    frequency=f_exc, sos=sos, segments=bounds, velocity_source=source)
+    c.t = c.decimate(t)
+    c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(cat("v_raw")), c.lowpass(cat("a_raw")), c.lowpass(cat("tau_raw"))
+    return c
+
+
+def _segment_signals(t, q, qd, tau, dt, sos_v, held) -> dict:
+    """Full-rate signals of one evenly sampled segment; interval arrays have one sample less."""
+    if qd is not None:
+        v_raw = np.asarray(qd, dtype=float)
         a_raw = np.gradient(v_raw, dt)
         v_int = 0.5 * (v_raw[1:] + v_raw[:-1])
     else:
         v_raw = np.gradient(q, dt)
         a_raw = second_difference(q, dt)
         v_int = np.diff(q) / dt
-    # the velocity that drives the model keeps more bandwidth than the comparison filter:
-    # the bristle state integrates it, so quantisation noise averages out
-    sos_v = signal.butter(2, min(4.0 * fc, 0.4 * fs), fs=fs, output="sos")
-    v_mid = signal.sosfiltfilt(sos_v, v_int)
-    # 'torque_hold: sample' marks torques sampled at t; 'zoh' commands held until the next
-    # sample (a digital drive); 'auto' or no key: zoh here, and identify() checks the data
-    hold = hold or torque_hold(rec, name)
-    if hold == "auto":
-        hold = "zoh"
-    tau_raw = held_torque(rec.tau) if hold == "zoh" and rec.qd is None else rec.tau
-    c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=v_mid, q_mid=0.5 * (q[1:] + q[:-1]),
-                    t_mid=0.5 * (t[1:] + t[:-1]), decim=decim, t=box_average(t, decim),
-                    q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
-                    frequency=f_exc, sos=sos)
-    c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(v_raw), c.lowpass(a_raw), c.lowpass(tau_raw)
-    return c
+    return {"v_raw": v_raw, "a_raw": a_raw, "v_mid": filtfilt(sos_v, v_int),
+            "q_mid": 0.5 * (q[1:] + q[:-1]), "t_mid": 0.5 * (t[1:] + t[:-1]),
+            "tau_raw": held_torque(tau) if held else tau}
+
+
+def filtfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Zero-phase filter; a segment shorter than the default padding is padded less (its
+    samples are never scored: they lie within the filter's edge)."""
+    pad = 3 * (2 * len(sos) + 1)
+    if len(x) > pad:
+        return signal.sosfiltfilt(sos, x)
+    return signal.sosfiltfilt(sos, x, padlen=len(x) - 1) if len(x) > 1 else np.array(x, dtype=float)
+
+
+# qd is used unless it is clearly noisier than the position's own differences: a logged
+# velocity (a tachometer, a drive's observer) is usually the cleaner one; a noisy one is not
+QD_NOISE_RATIO = 2.0
+
+
+def velocity_source(rec: Record, dt: float, name: str = "record") -> tuple[bool, str]:
+    """Use the record's qd?  Also checks that qd is the derivative of q (same unit, sign)."""
+    if rec.qd is None:
+        return False, "q"
+    vq = np.diff(rec.q) / dt
+    vd = 0.5 * (rec.qd[1:] + rec.qd[:-1])
+    if rec.segments:   # intervals across a gap are not velocities
+        keep = np.ones(len(vq), dtype=bool)
+        keep[np.asarray(rec.segments[1:], dtype=int) - 1] = False
+        vq, vd = vq[keep], vd[keep]
+    ratio = float(vd @ vq / max(vq @ vq, 1e-300))
+    if not 0.8 < ratio < 1.25:
+        raise InputError(f"{name}: column qd is {ratio:.3g} times the derivative of q; "
+                         "give both in the same unit (position unit per second), or leave qd out")
+    n_q = float(np.std(np.diff(vq, 2)))
+    n_qd = float(np.std(np.diff(vd, 2)))
+    if n_qd > QD_NOISE_RATIO * n_q:
+        return False, f"q (the logged qd is {n_qd / max(n_q, 1e-300):.3g}x noisier than q's differences)"
+    return True, "qd"
 
 
 def torque_hold(rec: Record, name: str = "record") -> str:

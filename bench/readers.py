@@ -1,0 +1,341 @@
+"""Records as users have them: CSV with any delimiter, Parquet, MATLAB .mat (v5).
+
+``read_record`` takes a file (path or bytes) and an optional column mapping
+(``t=NAME,tau=NAME,q=NAME[,qd=NAME]``; a name may also be a 1-based column number), takes
+metadata from ``#`` lines (CSV), scalar variables (.mat) or options, converts positions and
+torques to SI, puts uneven timestamps on a uniform grid (``bench.resample``) and validates.
+What was done is kept in ``Record.reading`` (``format``, ``columns``, ``units``,
+``resampling``) for the report.  Every problem is an ``InputError`` of one line.
+
+Units (``position_unit``, ``torque_unit``; the inertia is always SI: kg·m² or kg):
+revolute rad, deg, rev and N*m, mN*m, kN*m, N*mm; prismatic m, mm, um and N, mN, kN.
+"""
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+
+from bench.errors import InputError
+from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, validate
+from bench.resample import regularise
+
+ROLES = ("t", "tau", "q", "qd")
+POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi},
+                  "prismatic": {"m": 1.0, "mm": 1e-3, "um": 1e-6}}
+TORQUE_UNITS = {"revolute": {"N*m": 1.0, "mN*m": 1e-3, "kN*m": 1e3, "N*mm": 1e-3},
+                "prismatic": {"N": 1.0, "mN": 1e-3, "kN": 1e3}}
+SI = {"revolute": ("rad", "N*m"), "prismatic": ("m", "N")}
+
+
+def parse_columns(spec: str | None) -> dict | None:
+    """``t=time,tau=torque,q=pos`` -> {'t': 'time', ...}; None for no mapping."""
+    if spec is None or not spec.strip():
+        return None
+    out = {}
+    for item in spec.split(","):
+        role, eq, col = item.partition("=")
+        role, col = role.strip(), col.strip()
+        if not eq or not col:
+            raise InputError(f"--columns: {item.strip()!r} is not ROLE=NAME (roles: {', '.join(ROLES)})")
+        if role not in ROLES:
+            raise InputError(f"--columns: unknown role {role!r} (roles: {', '.join(ROLES)})")
+        if role in out:
+            raise InputError(f"--columns: {role} is mapped twice")
+        out[role] = col
+    missing = [r for r in REQUIRED if r not in out]
+    if missing:
+        raise InputError(f"--columns must map t, tau and q (missing: {', '.join(missing)})")
+    return out
+
+
+def read_record(source, name: str | None = None, columns: str | dict | None = None,
+                joint_type: str | None = None, position_unit: str | None = None,
+                torque_unit: str | None = None, inertia: float | None = None,
+                torque_hold: str | None = None) -> Record:
+    """Read, map, convert, resample and validate a record.  ``source``: a path, bytes or a
+    text stream."""
+    raw, name = _load(source, name)
+    fmt = _format(raw, name)
+    mapping = parse_columns(columns) if isinstance(columns, str) or columns is None else dict(columns)
+    if fmt == "parquet":
+        table, meta = _parquet(raw, name)
+        trace = _trace_record(table, mapping, name)
+        if trace is not None:
+            return _finish(trace, name, fmt, joint_type, position_unit, torque_unit, inertia, torque_hold)
+    elif fmt == "mat":
+        table, meta = _mat(raw, name)
+    else:
+        table, meta, fmt = _text(raw, name)
+    mapping = mapping or {r: r for r in ROLES if r in _names(table) or r in REQUIRED}
+    data = {}
+    for role, col in mapping.items():
+        key = _column_key(table, col, role, name, explicit=columns is not None)
+        values = table.column(key) if hasattr(table, "column_names") else table[key]
+        data[role] = _numeric(values, key, name, time=role == "t")
+    rec = Record(t=data["t"], tau=data["tau"], q=data["q"], qd=data.get("qd"), meta=meta)
+    rec.reading = {"format": fmt, "columns": {r: str(c) for r, c in mapping.items()}}
+    return _finish(rec, name, fmt, joint_type, position_unit, torque_unit, inertia, torque_hold)
+
+
+def _finish(rec: Record, name, fmt, joint_type, position_unit, torque_unit, inertia, torque_hold) -> Record:
+    for key, value in (("joint_type", joint_type), ("position_unit", position_unit),
+                       ("torque_unit", torque_unit), ("inertia", inertia), ("torque_hold", torque_hold)):
+        if value is not None:
+            rec.meta[key] = value
+    rec.reading.setdefault("format", fmt)
+    rec.reading["raw_t"] = np.array(rec.t, dtype=float)   # for --residuals at the record's own times
+    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
+        arr = getattr(rec, col)
+        if not np.all(np.isfinite(arr)):
+            i = int(np.argmin(np.isfinite(arr)))
+            raise InputError(f"{name}: column '{col}' has a non-finite value ({arr[i]}) at data row {i + 1}")
+    _to_si(rec, name)
+    rec = regularise(rec, name)
+    validate(rec, name)
+    return rec
+
+
+def _to_si(rec: Record, name: str) -> None:
+    jt = str(rec.meta.get("joint_type", "revolute"))
+    if jt not in JOINT_TYPES:
+        raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
+    conv = {}
+    for key, table, role in (("position_unit", POSITION_UNITS, "position"), ("torque_unit", TORQUE_UNITS, "torque")):
+        unit = rec.meta.get(key)
+        if unit is None:
+            continue
+        unit = str(unit).replace("·", "*").replace(" ", "")
+        known = table[jt]
+        unit = {"Nm": "N*m", "N.m": "N*m", "mNm": "mN*m", "kNm": "kN*m", "Nmm": "N*mm", "µm": "um",
+                "degrees": "deg", "radians": "rad"}.get(unit, unit)
+        if unit not in known:
+            raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
+                             f"(known: {', '.join(known)})")
+        factor = known[unit]
+        if factor != 1.0:
+            si = SI[jt][0 if role == "position" else 1]
+            conv[role] = {"from": unit, "to": si, "factor": factor}
+            rec.meta[key] = si
+            if role == "position":
+                rec.q = rec.q * factor
+                rec.qd = None if rec.qd is None else rec.qd * factor
+            else:
+                rec.tau = rec.tau * factor
+    rec.reading["units"] = conv
+
+
+# --- loading ---------------------------------------------------------------------------------
+def _load(source, name):
+    if isinstance(source, (str, Path)):
+        name = name or str(source)
+        try:
+            return Path(source).read_bytes(), name
+        except FileNotFoundError:
+            raise InputError(f"{name}: no such file") from None
+        except (IsADirectoryError, PermissionError) as e:
+            raise InputError(f"{name}: cannot read ({e.__class__.__name__})") from None
+    if isinstance(source, (bytes, bytearray)):
+        return bytes(source), name or "record"
+    text = source.read()
+    return (text.encode() if isinstance(text, str) else text), name or "record"
+
+
+def _format(raw: bytes, name: str) -> str:
+    if raw[:4] == b"PAR1":
+        return "parquet"
+    if raw[:10] == b"MATLAB 5.0" or raw[:19] == b"MATLAB 7.3 MAT-file":
+        return "mat"
+    if name.lower().endswith((".parquet", ".pq")):
+        raise InputError(f"{name}: not a Parquet file (no PAR1 magic)")
+    if name.lower().endswith(".mat"):
+        return "mat"   # v4 files have no magic; scipy says what it can read
+    return "csv"
+
+
+def _text(raw: bytes, name: str):
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError(f"{name}: not UTF-8 text (and not Parquet or MATLAB .mat)") from None
+    meta: dict = {}
+    rows: list[str] = []
+    for line in text.splitlines():
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            body = s[1:].strip()
+            if ":" in body:
+                k, v = body.split(":", 1)
+                meta[k.strip()] = _parse_meta_value(v.strip())
+            continue
+        rows.append(s)
+    if not rows:
+        raise InputError(f"{name}: no header row and no data")
+    delim = _delimiter(rows[0])
+    split = (lambda s: s.split()) if delim is None else (lambda s: [c.strip() for c in s.split(delim)])
+    header = [h.strip().strip('"') for h in split(rows[0])]
+    body = rows[1:]
+    if all(_is_number(h) for h in header):   # no header: columns are numbered
+        header, body = [str(i + 1) for i in range(len(header))], rows
+    if len(set(header)) != len(header):
+        raise InputError(f"{name}: duplicate column names in header")
+    cells = [split(r) for r in body]
+    for r, c in enumerate(cells, start=1):
+        if len(c) != len(header):
+            raise InputError(f"{name}: data row {r} has {len(c)} fields, header has {len(header)}")
+    cols = list(zip(*cells)) if cells else [()] * len(header)
+    decimal_comma = delim != "," and any("," in c for c in (cells[0] if cells else []))
+    table = {h: [x.strip('"').replace(",", ".") if decimal_comma else x.strip('"') for x in col]
+             for h, col in zip(header, cols)}
+    fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
+    return table, meta, fmt
+
+
+def _delimiter(header: str):
+    for d in ("\t", ";", ","):
+        if d in header:
+            return d
+    return None
+
+
+def _parquet(raw: bytes, name: str):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    try:
+        table = pq.read_table(io.BytesIO(raw))
+    except (pa.ArrowException, OSError) as e:
+        raise InputError(f"{name}: unreadable Parquet ({str(e).splitlines()[0][:120]})") from None
+    meta = {}
+    for k, v in (table.schema.metadata or {}).items():   # key/value metadata, if any was written
+        key = k.decode(errors="replace")
+        if key in ("inertia", "joint_type", "position_unit", "torque_unit", "torque_hold"):
+            meta[key] = _parse_meta_value(v.decode(errors="replace"))
+    return table, meta
+
+
+def _trace_record(table, mapping: dict | None, name: str) -> Record | None:
+    """The project's own run traces (bench.traces): columns t, tau_<id>, g_<id>, q_<id>,
+    v_<id>, segment.  Without a mapping (one joint) or with tau=tau_<id>, q=q_<id>, read
+    as the trace exporter does: the host's gravity model g_<id> is taken off the torque."""
+    from bench.traces import trace_to_record
+    names = table.column_names
+    if "segment" not in names or "t" not in names:
+        return None
+    joints = [n[2:] for n in names if n.startswith("q_")]
+    if mapping is None:
+        if len(joints) != 1:
+            raise InputError(f"{name}: a run trace of joints {', '.join(joints)}: choose one with "
+                             f"--columns t=t,tau=tau_<joint>,q=q_<joint>")
+        jid = joints[0]
+    else:
+        jid = mapping["q"][2:] if mapping["q"].startswith("q_") else None
+        if jid not in joints or mapping["tau"] != f"tau_{jid}" or mapping["t"] != "t":
+            return None   # an ordinary mapping: the columns as they are
+    rec = trace_to_record(table, jid, meta={})
+    if mapping and "qd" not in mapping:
+        rec.qd = None
+    rec.reading = {"format": "parquet (run trace)", "columns": {
+        "t": "t", "tau": f"tau_{jid}" + (f" - g_{jid}" if f"g_{jid}" in names else ""),
+        "q": f"q_{jid}", **({"qd": f"v_{jid}"} if rec.qd is not None else {})}}
+    return rec
+
+
+def _mat(raw: bytes, name: str):
+    from scipy.io import loadmat
+    if raw[:19] == b"MATLAB 7.3 MAT-file":
+        raise InputError(f"{name}: MATLAB v7.3 (HDF5) file; save it with -v7 (or as CSV)")
+    try:
+        mat = loadmat(io.BytesIO(raw), squeeze_me=True, struct_as_record=False)
+    except (ValueError, TypeError, NotImplementedError, OSError) as e:
+        raise InputError(f"{name}: unreadable MATLAB file ({str(e).splitlines()[0][:120]})") from None
+    table: dict = {}
+    meta: dict = {}
+
+    def add(prefix, value):
+        if hasattr(value, "_fieldnames"):            # a struct: its fields, as prefix.field
+            for f in value._fieldnames:
+                add(f"{prefix}.{f}" if prefix else f, getattr(value, f))
+            return
+        arr = np.asarray(value)
+        key = prefix.rsplit(".", 1)[-1]
+        if arr.dtype.kind in "US" and key in ("joint_type", "position_unit", "torque_unit", "torque_hold"):
+            meta[key] = str(arr)
+        elif arr.ndim == 0 and arr.dtype.kind in "fiu" and key == "inertia":
+            meta[key] = float(arr)
+        elif arr.ndim == 1 and arr.dtype.kind in "fiu":
+            table[prefix] = arr
+        elif arr.ndim == 2 and arr.dtype.kind in "fiu":   # a matrix: its columns, name(1), name(2) ...
+            for j in range(arr.shape[1]):
+                table[f"{prefix}({j + 1})"] = arr[:, j]
+
+    for k, v in mat.items():
+        if not k.startswith("__"):
+            add(k, v)
+    structs = [k for k, v in mat.items() if hasattr(v, "_fieldnames")]
+    if len(structs) == 1:   # one struct: its fields also under their own names
+        for k in list(table):
+            short = k.split(".", 1)[1] if k.startswith(structs[0] + ".") else None
+            if short and short not in table:
+                table[short] = table[k]
+    return table, meta
+
+
+# --- columns ---------------------------------------------------------------------------------
+def _names(table) -> list[str]:
+    return list(table.column_names) if hasattr(table, "column_names") else list(table)
+
+
+def _column_key(table, col: str, role: str, name: str, explicit: bool):
+    names = _names(table)
+    if col in names:
+        return col
+    if col.isdigit() and 1 <= int(col) <= len(names):
+        return names[int(col) - 1]
+    shown = ", ".join(names[:40]) + (" ..." if len(names) > 40 else "")
+    if explicit:
+        raise InputError(f"{name}: no column {col!r} (for {role}); the file's columns: {shown}")
+    raise InputError(f"{name}: missing column '{role}' (header is: {shown}); map yours with "
+                     f"--columns t=NAME,tau=NAME,q=NAME")
+
+
+def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
+    if hasattr(values, "to_numpy"):   # a pyarrow column
+        import pyarrow as pa
+        if pa.types.is_timestamp(values.type):
+            ns = values.cast(pa.timestamp("ns")).to_numpy().astype("datetime64[ns]").astype(np.int64)
+            return (ns - ns[0]) * 1e-9
+        try:
+            values = values.to_numpy(zero_copy_only=False)
+        except pa.ArrowException:
+            raise InputError(f"{name}: column '{col}' is not numeric") from None
+    arr = np.asarray(values)
+    if arr.dtype.kind in "fiu":
+        return arr.astype(float)
+    try:
+        return np.array(arr, dtype=float)
+    except (ValueError, TypeError):
+        pass
+    if time:   # clock times, as many loggers write them: seconds from the first
+        try:
+            ts = np.array(arr, dtype="datetime64[ns]").astype(np.int64)
+            return (ts - ts[0]) * 1e-9
+        except (ValueError, TypeError):
+            pass
+    for r, cell in enumerate(arr, start=1):
+        try:
+            float(cell)
+        except (ValueError, TypeError):
+            raise InputError(f"{name}: column '{col}' is not numeric at data row {r}: {cell!r}") from None
+    raise InputError(f"{name}: column '{col}' is not numeric")
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False

@@ -1,0 +1,109 @@
+"""Uneven timestamps -> evenly sampled segments.
+
+A PC logger samples when it gets round to it (1-13 ms steps around a nominal rate), drops
+samples now and then, and sometimes writes a timestamp twice.  Identification needs a fixed
+step (the bristle state is integrated over it, the filters assume it), so such a record is
+put on a uniform grid at its median step, one signal at a time:
+
+  q    PCHIP (shape-preserving cubic): smooth, so its differences stay meaningful, and no
+       overshoot between samples (no invented motion at reversals);
+  tau  held (the previous sample) when the record says ``torque_hold: zoh`` (a command held
+       until the next one); otherwise sampled, so linear;
+  qd   linear.
+
+A step longer than ``GAP_STEPS`` median steps is a gap: nothing is interpolated across it.
+The record is split there into segments analysed together, each with its own filter edges
+and its own bristle start (see ``Record.segments``).  Duplicate timestamps keep their first
+sample; time that goes backwards is an error.  An evenly sampled record is returned as it is.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+from bench.errors import InputError
+from bench.records import Record
+
+# A gap: a step longer than 3 median steps.  A PC logger's jitter (1-13 ms around 7 ms) stays
+# below 2x the median; dropped samples make more.  PCHIP across one missing sample is harmless;
+# across a longer hole the motion in between is a guess, and splitting costs only filter edges.
+GAP_STEPS = 3.0
+# evenly sampled: every step within 1 % of the median (as bench.records.validate checks)
+EVEN_TOL = 0.01
+# a segment with fewer grid samples than this is dropped (reported): nothing can be filtered
+MIN_SEGMENT_SAMPLES = 4
+
+
+def regularise(rec: Record, name: str = "record") -> Record:
+    """``rec`` on a uniform grid, split at gaps, with ``rec.reading['resampling']`` saying
+    what was done.  ``rec``'s arrays must be finite."""
+    t = np.asarray(rec.t, dtype=float)
+    if len(t) < 2:
+        raise InputError(f"{name}: only {len(t)} samples; a record needs at least two excitation cycles")
+    d = np.diff(t)
+    back = np.nonzero(d < 0)[0]
+    if len(back):
+        i = int(back[0])
+        raise InputError(f"{name}: time is not increasing: it goes back from t={t[i]:g} to t={t[i + 1]:g} "
+                         f"at data row {i + 2}")
+    keep = np.concatenate(([True], d > 0))
+    duplicates = int(len(t) - keep.sum())
+    cols = {k: np.asarray(getattr(rec, k), dtype=float)[keep] for k in ("t", "tau", "q")}
+    if rec.qd is not None:
+        cols["qd"] = np.asarray(rec.qd, dtype=float)[keep]
+    t = cols["t"]
+    if len(t) < 2:
+        raise InputError(f"{name}: every timestamp is the same")
+    d = np.diff(t)
+    h = float(np.median(d))
+    gaps = np.nonzero(d > GAP_STEPS * h)[0]
+    steps = np.delete(d, gaps)
+    report = {
+        "resampled": False, "median_step": h, "rate_hz": 1.0 / h, "max_step": float(d.max()),
+        "jitter": float(np.std(steps) / h), "duplicates_dropped": duplicates,
+        "gap_threshold_steps": GAP_STEPS, "gaps": int(len(gaps)),
+        "longest_gap": float(d[gaps].max()) if len(gaps) else 0.0,
+    }
+    meta = dict(rec.meta)
+    even = np.max(np.abs(d - h)) <= EVEN_TOL * h + 1e-9
+    if even:
+        out = Record(t=t, tau=cols["tau"], q=cols["q"], qd=cols.get("qd"), meta=meta)
+        report["segments"] = [_segment(t)]
+        out.reading = dict(rec.reading, resampling=report)
+        return out
+    held = str(meta.get("torque_hold", "auto")).lower() == "zoh" and float(meta.get("inertia", 1.0) or 0.0) != 0.0
+    pieces: list[dict] = []
+    dropped: list[dict] = []
+    for a, b in zip(np.concatenate(([0], gaps + 1)), np.concatenate((gaps + 1, [len(t)]))):
+        ts = t[a:b]
+        n = int(np.floor((ts[-1] - ts[0]) / h + 1e-9)) + 1
+        if n < MIN_SEGMENT_SAMPLES or b - a < 2:
+            dropped.append(_segment(ts))
+            continue
+        grid = ts[0] + h * np.arange(n)
+        piece = {"t": grid, "q": PchipInterpolator(ts, cols["q"][a:b])(grid)}
+        if held:
+            piece["tau"] = cols["tau"][a:b][np.searchsorted(ts, grid, side="right") - 1]
+        else:
+            piece["tau"] = np.interp(grid, ts, cols["tau"][a:b])
+        if "qd" in cols:
+            piece["qd"] = np.interp(grid, ts, cols["qd"][a:b])
+        pieces.append(piece)
+    if not pieces:
+        raise InputError(f"{name}: segments too short to analyse after splitting at {len(gaps)} gaps "
+                         f"(steps > {GAP_STEPS:g} x the median step {h:.4g} s)")
+    starts = np.cumsum([0] + [len(p["t"]) for p in pieces[:-1]]).tolist()
+    cat = {k: np.concatenate([p[k] for p in pieces]) for k in pieces[0]}
+    if not held:
+        meta["torque_hold"] = "sample"   # the grid's torques are samples of it now
+    report.update(resampled=True, segments=[_segment(p["t"]) for p in pieces], segments_dropped=dropped,
+                  methods={"q": "pchip", "tau": "previous sample (held)" if held else "linear",
+                           **({"qd": "linear"} if "qd" in cols else {})})
+    out = Record(t=cat["t"], tau=cat["tau"], q=cat["q"], qd=cat.get("qd"), meta=meta,
+                 segments=starts if len(pieces) > 1 else None, step=h)
+    out.reading = dict(rec.reading, resampling=report)
+    return out
+
+
+def _segment(t: np.ndarray) -> dict:
+    return {"t_start": float(t[0]), "t_end": float(t[-1]), "samples": int(len(t))}
