@@ -8,12 +8,14 @@ before it is compared, so the filter smooths noise without biasing the fit.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy import signal
 
 from bench.errors import InputError
 from bench.records import Record
+from bench.segments import filtfilt_segments
 
 
 @dataclass
@@ -57,19 +59,19 @@ class Conditioned:
         """Full-rate signal -> the comparison grid (CIC decimation, then zero-phase low-pass)."""
         if len(self.segments) == 1:
             return signal.sosfiltfilt(self.sos, box_average(x_full, self.decim))
-        return np.concatenate([filtfilt(self.sos, box_average(x_full[a:b], self.decim))
-                               for a, b in self.segments])
+        parts = [box_average(x_full[a:b], self.decim) for a, b in self.segments]
+        return filtfilt_segments(self.sos, np.concatenate(parts), np.array(self.grid_segments))
 
     def decimate(self, x_full: np.ndarray) -> np.ndarray:
         """Full-rate signal -> the grid without the low-pass (e.g. the time)."""
         return np.concatenate([box_average(x_full[a:b], self.decim) for a, b in self.segments])
 
-    @property
+    @cached_property
     def interval_segments(self) -> list[tuple[int, int]]:
         """Segments of the interval (``*_mid``) arrays: one interval fewer per segment."""
         return [(a - k, b - k - 1) for k, (a, b) in enumerate(self.segments)]
 
-    @property
+    @cached_property
     def grid_segments(self) -> list[tuple[int, int]]:
         """Segments of the comparison grid."""
         out, at = [], 0
