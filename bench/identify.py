@@ -177,11 +177,11 @@ def _starting_point(data: FitData, est: dict, M: float) -> dict:
     span = max(np.ptp(data.c.q), 1e-12)
     s0 = est["sigma0"] if np.isfinite(est["sigma0"]) and est["sigma0"] > 0 else 100 * est["Fs"] / span
     cur = {"Fc": est["Fc"], "Fs": est["Fs"], "alpha": est["alpha"], "sigma2": est["sigma2"],
-           "sigma0": s0, "sigma1": 2.0 * math.sqrt(s0 * M)}
+           "sigma0": s0, "sigma1": _damping_scale(s0, M)}
     # stiffness and damping first (they shape every reversal), then the Stribeck curve
     s0_grid = s0 * np.logspace(-2, 2, 9)
-    cur["sigma0"] = min(s0_grid, key=lambda g: cost(dict(cur, sigma0=g, sigma1=2.0 * math.sqrt(g * M))))
-    crit = 2.0 * math.sqrt(cur["sigma0"] * M)
+    cur["sigma0"] = min(s0_grid, key=lambda g: cost(dict(cur, sigma0=g, sigma1=_damping_scale(g, M))))
+    crit = _damping_scale(cur["sigma0"], M)
     cur["sigma1"] = min(crit * np.logspace(-3, 1, 9), key=lambda g: cost(dict(cur, sigma1=g)))
     alphas = [est["alpha"]] + ([est["alpha_eq16"]] if np.isfinite(est["alpha_eq16"]) and est["alpha_eq16"] > 0 else [])
     alphas += list(np.logspace(-0.5, 1.5, 7) / vmax)
@@ -195,6 +195,13 @@ def _starting_point(data: FitData, est: dict, M: float) -> dict:
                 best = (c, a, cur["Fc"] + ds)
     cur["alpha"], cur["Fs"] = best[1], best[2]
     return cur
+
+
+def _damping_scale(sigma0: float, M: float) -> float:
+    """Scale of sigma1 for the start search: critical damping of the bristles with the joint's
+    inertia; a friction-torque record (M = 0) has none, so a 10 ms bristle time constant
+    sigma1/sigma0 (Table II's joints: 8-9 ms), searched over 1e-3..10x like the other."""
+    return 2.0 * math.sqrt(sigma0 * M) if M > 0 else 0.01 * sigma0
 
 
 def lugre_starts(data: FitData, est: dict, M: float) -> list[dict]:
@@ -246,6 +253,8 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
              name: str = "record") -> Identification:
     from bench.signals import torque_hold
     hold = torque_hold(rec, name)
+    if (inertia if inertia is not None else rec.inertia) == 0:
+        hold = "sample"   # a friction column is a measurement at t, not a held command
     data, M = prepare(rec, inertia, cutoff, name, hold)
     est = section3_estimates(data, M, name)
     res = _fit_lugre(data, est, M)
