@@ -86,24 +86,42 @@ def revoke_key(key_id: str, svc: Service = Depends(service), _=Depends(admin)):
 
 
 # --- analysis of an uploaded record ------------------------------------------------------------
+_BINARY = {"type": "string", "format": "binary"}
 _UPLOAD_DOC = {"requestBody": {"required": True, "content": {
     "text/csv": {"schema": {"type": "string", "minLength": 1}},
+    "application/vnd.apache.parquet": {"schema": _BINARY},
+    "application/x-matlab-data": {"schema": _BINARY},
+    "application/octet-stream": {"schema": _BINARY},
     "multipart/form-data": {"schema": {"type": "object", "required": ["file"],
-                                       "properties": {"file": {"type": "string", "format": "binary"}}}}}}}
+                                       "properties": {"file": _BINARY}}}}}}
+# content types taken as a record body; the format itself is told by its magic bytes
+_TEXT = ("text/csv", "text/plain", "application/csv", "text/tab-separated-values")
+_BINARIES = {"application/vnd.apache.parquet": ".parquet", "application/x-parquet": ".parquet",
+             "application/x-matlab-data": ".mat", "application/x-mat": ".mat",
+             "application/octet-stream": ""}
 
 
 @router.post("/analyze", response_model=dict[str, Any], tags=["analysis"], openapi_extra=_UPLOAD_DOC,
-             responses={**E.AUTH, 413: E._doc("record too large"), 415: E._doc("not CSV or multipart")},
-             summary="Identify and diagnose an uploaded record CSV (t, tau, q[, qd]); the report JSON")
-async def analyze(request: Request, inertia: Optional[float] = Query(None, gt=0, le=1e9, description="M_jj"),
+             responses={**E.AUTH, 413: E._doc("record too large"), 415: E._doc("not a record body")},
+             summary="Identify and diagnose an uploaded record (CSV, Parquet or MATLAB .mat); the report JSON")
+async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0, le=1e9, description="M_jj [SI]; 0: the torque column is the friction"),
+                  columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
+                  joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
+                  position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),
+                  torque_unit: Optional[str] = Query(None, max_length=20, description="N*m, mN*m, kN*m, N*mm; N, mN, kN"),
+                  torque_hold: Optional[str] = Query(None, pattern="^(zoh|sample|auto)$"),
                   add: Optional[str] = Query(None, max_length=200, description="effects to add, comma-separated"),
                   diagnose: bool = Query(True, description="diagnose what the LuGre model misses"),
                   svc: Service = Depends(service), _=Depends(operator)):
-    name, text = await _upload(request)
+    name, raw = await _upload(request)
+    from bench.readers import parse_columns
+    parse_columns(columns)   # a bad mapping is told before the upload is queued
+    options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,
+               "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
     pool = _pool(svc)
     try:
-        fut = pool.submit(analyze_text, text, name, inertia, effects, diagnose)
+        fut = pool.submit(analyze_upload, raw, name, options, effects, diagnose)
         return await asyncio.wrap_future(fut)
     except BrokenProcessPool:   # the analysis process died (memory?): a new one next time
         svc.analysis_pool = None
@@ -118,19 +136,18 @@ def _pool(svc: Service) -> ProcessPoolExecutor:
     return svc.analysis_pool
 
 
-def analyze_text(text: str, name: str, inertia, effects, diagnose: bool) -> dict:
-    """In the analysis process: parse, identify, diagnose; InputError travels back pickled."""
-    import io
+def analyze_upload(raw: bytes, name: str, options: dict, effects, diagnose: bool) -> dict:
+    """In the analysis process: read, identify, diagnose; InputError travels back pickled."""
     import json
 
     from bench.analysis import analyze_record
-    from bench.records import read_csv
-    rec = read_csv(io.StringIO(text), name=name)
-    result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=diagnose, name=name)
+    from bench.readers import read_record
+    rec = read_record(raw, name=name, **options)
+    result = analyze_record(rec, inertia=options.get("inertia"), add=effects, diagnose_effects=diagnose, name=name)
     return json.loads(json.dumps(result.report(), default=float))   # plain JSON types only
 
 
-async def _upload(request: Request) -> tuple[str, str]:
+async def _upload(request: Request) -> tuple[str, bytes]:
     ctype = (request.headers.get("content-type") or "").lower()
     length = request.headers.get("content-length")
     if length is not None and length.isdigit() and int(length) > MAX_UPLOAD:
@@ -140,19 +157,20 @@ async def _upload(request: Request) -> tuple[str, str]:
         body += chunk
         if len(body) > MAX_UPLOAD:
             raise HTTPException(413, f"record too large (limit {MAX_UPLOAD} bytes)")
-    if ctype.startswith("multipart/form-data"):
+    base = ctype.split(";")[0].strip()
+    if base == "multipart/form-data":
         name, raw = _multipart_file(bytes(body), request.headers["content-type"])
-    elif ctype.startswith(("text/csv", "text/plain", "application/csv")) or not ctype:
+    elif base in _TEXT or not base:
         name, raw = "upload.csv", bytes(body)
+    elif base in _BINARIES:
+        name, raw = "upload" + _BINARIES[base], bytes(body)
     else:
-        raise HTTPException(415, f"send the record as text/csv or multipart/form-data (field 'file'), not {ctype[:60]!r}")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError(f"{name}: not UTF-8 text") from None
-    if not text.strip():
+        raise HTTPException(415, f"send the record as text/csv, application/vnd.apache.parquet, "
+                                 f"application/x-matlab-data, application/octet-stream or multipart/form-data "
+                                 f"(field 'file'), not {ctype[:60]!r}")
+    if not raw.strip():
         raise InputError(f"{name}: empty record")
-    return name, text
+    return name, raw
 
 
 def _multipart_file(body: bytes, content_type: str) -> tuple[str, bytes]:

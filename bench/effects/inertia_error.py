@@ -30,13 +30,20 @@ class InertiaError(Effect):
         return {"inertia_error": float(coef[2])}
 
     def fd_step(self, key, ctx):
-        return 1e-3 * ctx.inertia
+        if ctx.inertia > 0:
+            return 1e-3 * ctx.inertia
+        # a friction-torque record (M = 0): the inertia that would move the estimate as much
+        a = ctx.data.c.a[ctx.data.mask]
+        return 1e-3 * float(np.std(ctx.data.friction[ctx.data.mask])) / max(float(np.std(a)), 1e-300)
 
     def apply(self, values, extra, ev):
         extra["inertia_error"] += values["inertia_error"]
 
     def evidence(self, values, explained, ctx):
         M, dM = ctx.inertia, values["inertia_error"]
+        if M == 0:
+            return (f"residual is proportional to acceleration: the friction column still carries an "
+                    f"inertia term M ~ {dM:.4g}; {explained_text(explained)}")
         return (f"residual is proportional to acceleration: the declared inertia {M:.4g} is "
                 f"{abs(dM / M):.0%} too {'low' if dM > 0 else 'high'} (M ~ {M + dM:.4g}); "
                 f"{explained_text(explained)}")
