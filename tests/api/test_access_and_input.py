@@ -134,6 +134,41 @@ def test_analyze_csv_body_and_multipart(operator):
     assert r.status_code == 200, r.text
 
 
+def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path):
+    """A logger's file with its own column names and units, as Parquet (by content type) and
+    as MATLAB .mat (application/octet-stream: told by its magic bytes)."""
+    import io
+
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    from scipy.io import savemat
+    spec = preset("rotary")
+    rec = simulate_record(spec, *spec.excitation, 6.0, dt=1e-3, seed=5401).record
+    cols = {"time": rec.t, "motor_torque_mNm": rec.tau * 1e3, "angle_deg": np.degrees(rec.q)}
+    params = {"columns": "t=time,tau=motor_torque_mNm,q=angle_deg", "torque_unit": "mN*m",
+              "position_unit": "deg", "inertia": spec.inertia, "diagnose": "false"}
+    buf = io.BytesIO()
+    pq.write_table(pa.table(cols), buf)
+    r = operator.post("/analyze", content=buf.getvalue(), params=params,
+                      headers={"content-type": "application/vnd.apache.parquet"}, timeout=180)
+    assert r.status_code == 200, r.text
+    doc = r.json()
+    assert doc["units"]["conversions"]["torque"]["factor"] == 1e-3 and doc["input"]["format"] == "parquet"
+    assert abs(doc["parameters"]["Fc"] / spec.friction.Fc - 1) < 0.05
+    buf = io.BytesIO()
+    savemat(buf, {"log": cols})
+    r = operator.post("/analyze", content=buf.getvalue(), params=params,
+                      headers={"content-type": "application/octet-stream"}, timeout=180)
+    assert r.status_code == 200 and r.json()["parameters"] == doc["parameters"], r.text
+    for bad, expect in (({"columns": "t=time,tau=nope,q=angle_deg"}, "no column 'nope'"),
+                        ({"columns": "t=time,tau=motor_torque_mNm"}, "missing: q"),
+                        ({"inertia": -1}, "inertia")):
+        r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, **bad),
+                          headers={"content-type": "application/octet-stream"}, timeout=60)
+        assert r.status_code == 422 and expect in r.json()["detail"] and "\n" not in r.json()["detail"], r.text
+
+
 @pytest.mark.parametrize("content, ctype, status", [
     (b"t,tau\n0,1\n", "text/csv", 422),
     (b"\xff\xfe\x00garbage", "text/csv", 422),

@@ -64,7 +64,8 @@ HEADER = "# inertia: 1.0\nt,tau,q\n"
     ("non-numeric", HEADER + "0,1,0\n0.001,abc,0\n" * 6, "not numeric"),
     ("nan", HEADER + "".join(f"{i/1000},1,{'nan' if i == 5 else i}\n" for i in range(20)), "non-finite"),
     ("time not increasing", HEADER + "".join(f"{(i if i != 7 else 3)/1000},{i},{i}\n" for i in range(20)), "not increasing"),
-    ("uneven", HEADER + "".join(f"{(i + (0.5 if i > 10 else 0))/1000},{i},{i}\n" for i in range(20)), "unevenly sampled"),
+    # uneven time is resampled now; split at gaps into pieces too short to filter, it is refused
+    ("gaps", HEADER + "".join(f"{i / 1000 + 0.05 * (i // 3)},{np.sin(i)},{i}\n" for i in range(60)), "segments too short"),
     ("constant position", HEADER + "".join(f"{i/1000},{np.sin(i/50)},0.5\n" for i in range(400)), "position is constant"),
     ("empty", "", "no header"),
 ])
