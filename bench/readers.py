@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
-from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, validate
+from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 
 ROLES = ("t", "tau", "q", "qd")
@@ -160,19 +160,7 @@ def _text(raw: bytes, name: str):
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{name}: not UTF-8 text (and not Parquet or MATLAB .mat)") from None
-    meta: dict = {}
-    rows: list[str] = []
-    for line in text.splitlines():
-        s = line.strip()
-        if not s:
-            continue
-        if s.startswith("#"):
-            body = s[1:].strip()
-            if ":" in body:
-                k, v = body.split(":", 1)
-                meta[k.strip()] = _parse_meta_value(v.strip())
-            continue
-        rows.append(s)
+    meta, rows = split_metadata(text)
     if not rows:
         raise InputError(f"{name}: no header row and no data")
     delim = _delimiter(rows[0])

@@ -86,19 +86,8 @@ def _parse_meta_value(v: str):
     return x if math.isfinite(x) else v
 
 
-def read_csv(source: str | Path | io.TextIOBase, name: str | None = None) -> Record:
-    """Read and validate a record.  ``source`` is a path or an open text stream."""
-    if isinstance(source, (str, Path)):
-        name = name or str(source)
-        try:
-            text = Path(source).read_text()
-        except FileNotFoundError:
-            raise InputError(f"{name}: no such file") from None
-        except (IsADirectoryError, PermissionError, UnicodeDecodeError) as e:
-            raise InputError(f"{name}: cannot read ({e.__class__.__name__})") from None
-    else:
-        text = source.read()
-        name = name or "record"
+def split_metadata(text: str) -> tuple[dict, list[str]]:
+    """``# key: value`` lines -> metadata; the other non-empty lines, stripped."""
     meta: dict = {}
     rows: list[str] = []
     for line in text.splitlines():
@@ -112,6 +101,23 @@ def read_csv(source: str | Path | io.TextIOBase, name: str | None = None) -> Rec
                 meta[k.strip()] = _parse_meta_value(v.strip())
             continue
         rows.append(s)
+    return meta, rows
+
+
+def read_csv(source: str | Path | io.TextIOBase, name: str | None = None) -> Record:
+    """Read and validate a record.  ``source`` is a path or an open text stream."""
+    if isinstance(source, (str, Path)):
+        name = name or str(source)
+        try:
+            text = Path(source).read_text()
+        except FileNotFoundError:
+            raise InputError(f"{name}: no such file") from None
+        except (IsADirectoryError, PermissionError, UnicodeDecodeError) as e:
+            raise InputError(f"{name}: cannot read ({e.__class__.__name__})") from None
+    else:
+        text = source.read()
+        name = name or "record"
+    meta, rows = split_metadata(text)
     if not rows:
         raise InputError(f"{name}: no header row and no data")
     header = [h.strip() for h in rows[0].split(",")]

@@ -53,7 +53,7 @@ def friction_log(joint: str, seed: int, duration: float, offset: float = 0.0):
     F = held_torque(sine_torque(*spec.excitation, t)) - spec.inertia * second_difference(sim.true_q, 1e-3)
     rng = np.random.default_rng(seed + 1)
     F = F + 0.02 * spec.friction.Fc * rng.standard_normal(len(t)) + offset * spec.friction.Fc
-    return spec, t, F, np.degrees(sim.true_q)
+    return spec, t, F, np.degrees(sim.true_q), np.degrees(sim.true_v)
 
 
 def test_formats_round_trip(tmp_path):
@@ -121,13 +121,22 @@ def test_jittered_log_with_dropped_samples_is_resampled_split_and_identified(joi
     assert sum(s["scored"] for s in doc["resampling"]["segments"]) >= 5
 
 
-def test_friction_torque_record_with_inertia_zero():
-    spec, t, F, q_deg = friction_log("j4", 5305, duration=24.0)
-    text = "stamp,joint_friction,joint_pos\n" + "\n".join(f"{a:.4f},{b:.8g},{c:.10g}" for a, b, c in zip(t, F, q_deg))
-    rec = read_record(text.encode(), name="arm.csv", columns="t=stamp,tau=joint_friction,q=joint_pos",
-                      inertia=0, position_unit="deg")
+@pytest.mark.parametrize("qd_noise, source", [(None, "q"), (0.0, "qd"), (0.05, "q (the logged qd is")])
+def test_friction_torque_record_with_inertia_zero(qd_noise, source):
+    """Friction column, inertia 0; a logged velocity is used unless it is much noisier than
+    the position's differences."""
+    spec, t, F, q_deg, v_deg = friction_log("j4", 5305, duration=24.0)
+    header, cols = ["stamp", "joint_friction", "joint_pos"], [t, F, q_deg]
+    if qd_noise is not None:
+        rng = np.random.default_rng(5310)
+        header.append("joint_vel")
+        cols.append(v_deg + qd_noise * np.abs(v_deg).max() * rng.standard_normal(len(t)))
+    text = ",".join(header) + "\n" + "\n".join(",".join(f"{x:.10g}" for x in row) for row in zip(*cols))
+    mapping = "t=stamp,tau=joint_friction,q=joint_pos" + (",qd=joint_vel" if qd_noise is not None else "")
+    rec = read_record(text.encode(), name="arm.csv", columns=mapping, inertia=0, position_unit="deg")
     doc = analyze_record(rec, diagnose_effects=False).report()
     assert doc["inertia"] == 0.0 and doc["fit"]["torque_hold"] == "sample"
+    assert doc["input"]["velocity_from"].startswith(source)
     assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
 
 
@@ -135,7 +144,7 @@ def test_friction_log_with_an_offset_is_read():
     """The issue's repro: a torque sensor's friction with a constant offset of a quarter of
     Fc.  Reading must not refuse it (whether the analysis reads the offset as such is the
     diagnosis's business)."""
-    spec, t, F, q_deg = friction_log("j3", 5306, duration=12.0, offset=0.25)
+    spec, t, F, q_deg, _ = friction_log("j3", 5306, duration=12.0, offset=0.25)
     rec = read_record(("t,tau,q\n" + "\n".join(f"{a:.4f},{b:.8g},{c:.10g}" for a, b, c in zip(t, F, q_deg))).encode(),
                       name="offset.csv", inertia=0, position_unit="deg")
     assert rec.inertia == 0.0 and rec.meta["position_unit"] == "rad"
@@ -145,7 +154,7 @@ def test_friction_log_with_an_offset_is_read():
 def test_logger_file_end_to_end_with_residuals(tmp_path):
     """A file as a robot's logger writes it: other column names, no metadata lines, uneven
     time with dropped samples, a friction column; analysed with --columns and --inertia 0."""
-    spec, t1k, F, q_deg = friction_log("j3", 5307, duration=14.0)
+    spec, t1k, F, q_deg, _ = friction_log("j3", 5307, duration=14.0)
     t = logged(Record(t=t1k, tau=F, q=q_deg), 5308, drop=0.002)
     f = np.interp(t, t1k, F)
     q = np.interp(t, t1k, q_deg)
