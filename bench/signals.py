@@ -149,9 +149,8 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     hold = hold or torque_hold(rec, name)
     if hold == "auto":
         hold = "zoh"
-    friction_column = rec.inertia == 0.0   # tau is the friction, sampled: no hold, no q''
     pieces = [_segment_signals(t[a:b], q[a:b], None if not use_qd else rec.qd[a:b], rec.tau[a:b], dt,
-                               sos_v, hold == "zoh" and not use_qd and not friction_column)
+                               sos_v, hold == "zoh" and not use_qd)
               for a, b in bounds]
     cat = (lambda k: pieces[0][k]) if len(pieces) == 1 else (lambda k: np.concatenate([p[k] for p in pieces]))
     c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=cat("v_mid"), q_mid=cat("q_mid"),
