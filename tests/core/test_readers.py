@@ -85,6 +85,15 @@ def test_formats_round_trip(tmp_path):
     assert got.qd is not None and got.reading["columns"]["tau"] == "tau_j2 - g_j2"
 
 
+def test_duplicate_timestamps_are_dropped_and_reported():
+    rec = simulate_record(PRESETS["j3"], *PRESETS["j3"].excitation, duration=2.0, seed=5309).record
+    dup = np.sort(np.concatenate([np.arange(len(rec.t)), [10, 500, 501, 1500]]))
+    raw = Record(t=rec.t[dup], tau=rec.tau[dup], q=rec.q[dup], meta=dict(rec.meta))
+    got = read_record(raw.to_csv().encode(), name="dup.csv")
+    assert got.reading["resampling"]["duplicates_dropped"] == 4 and not got.reading["resampling"]["resampled"]
+    np.testing.assert_allclose(got.q, rec.q, rtol=1e-9)   # the CSV keeps 10 digits
+
+
 def test_units_and_columns_give_the_si_parameters(tmp_path):
     for joint, pos, tq, fq, ft in (("j3", "deg", "mN*m", 180 / np.pi, 1e3), ("linear", "mm", "N", 1e3, 1.0)):
         spec = PRESETS[joint]
