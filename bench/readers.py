@@ -270,8 +270,9 @@ def _mat(raw: bytes, name: str):
         raise InputError(f"{name}: MATLAB v7.3 (HDF5) file; save it with -v7 (or as CSV)")
     try:
         mat = loadmat(io.BytesIO(raw), squeeze_me=True, struct_as_record=False)
-    except (ValueError, TypeError, NotImplementedError, OSError) as e:
-        raise InputError(f"{name}: unreadable MATLAB file ({str(e).splitlines()[0][:120]})") from None
+    except Exception as e:  # noqa: BLE001 - scipy's reader fails many ways on a broken file
+        detail = (str(e).splitlines() or [e.__class__.__name__])[0][:120]
+        raise InputError(f"{name}: unreadable MATLAB file ({detail})") from None
     table: dict = {}
     meta: dict = {}
 
