@@ -97,8 +97,9 @@ def create_app(conf: ServiceConfig | None = None, service: Service | None = None
     app.state.service = svc
     app.state.closing = False
     errors.install(app)
-    from api import routes_joints, routes_runs, routes_service
+    from api import routes_joints, routes_page, routes_runs, routes_service
     app.include_router(routes_service.router)
     app.include_router(routes_joints.router)
     app.include_router(routes_runs.router)
+    routes_page.mount(app)          # the technician's page at / (api/static)
     return app

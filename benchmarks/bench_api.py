@@ -2,7 +2,8 @@
 
 Not a timed test: prints a markdown table.  Loopback only; bounded request counts and time.
 
-    python benchmarks/bench_api.py [--clients 50] [--poll 0.2] [--seconds 5] [--rounds 6] [--estops 5]
+    python benchmarks/bench_api.py [--pattern poll|page] [--clients 50] [--poll 0.2] [--pages 20]
+                                   [--seconds 5] [--rounds 6] [--estops 5]
                                    [--client-cpus server|any] [--no-pin] [--rt-priority N]
 
 1. ``bench serve`` in a child process with macro4 switched to the realtime clock, as in
@@ -13,11 +14,16 @@ Not a timed test: prints a markdown table.  Loopback only; bounded request count
    (``api.cpus``; ``--no-pin`` turns that off).
 2. A calibration of the bench starts (its rig cycles all four joints every period), with
    10-cycle search trials so that the phases below all fall in its first stage.
-3. ``--rounds`` pairs of phases of ``--seconds`` each: quiet (no clients), then loaded:
-   ``--clients`` concurrent clients each polling ``GET /runs/{id}`` every ``--poll`` s plus
-   one SSE stream (10 Hz samples).  Latency percentiles; host overruns per phase kind from
-   /health (the calibration's process).  Targets: p99 <= 50 ms, no more overruns loaded than
-   quiet.
+3. ``--rounds`` pairs of phases of ``--seconds`` each: quiet (no clients), then loaded.
+   ``--pattern poll``: ``--clients`` concurrent clients each polling ``GET /runs/{id}`` every
+   ``--poll`` s plus one SSE stream (10 Hz samples).  ``--pattern page``: ``--pages`` open
+   technician's pages (api/static), each doing what the page does, at the rates the page
+   declares (``POLL`` in api/static/api.js, read from there): every page polls ``/health``;
+   half of them are on the live view of the calibration (``GET /runs/{id}`` plus their own
+   event stream at the page's sample rate), the other half on the bench view (``GET
+   /joints/{id}`` for every joint).  Latency percentiles of every request; host overruns per
+   phase kind from /health (the calibration's process).  Targets: p99 <= 50 ms, no more
+   overruns loaded than quiet.
 4. The calibration is cancelled; its run record's overrun count is reported.
 5. E-stop latency, ``--estops`` times: a tracking run on j3+j4 moving, then POST /estop;
    client round trip and the server's latch -> every run process answered (its drives
@@ -35,6 +41,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import gc
+import json
 import os
 import re
 import statistics
@@ -122,6 +129,73 @@ async def load(url: str, key: str, run_id: str, clients: int, poll: float, secon
     return {"latencies": lat, "errors": errors, "sse_events": sse_events}
 
 
+def page_pattern() -> dict:
+    """The page's own polling periods and sample rate: the ``POLL`` line of api/static/api.js."""
+    text = resources.files("api").joinpath("static/api.js").read_text()
+    m = re.search(r"^export const POLL = (\{.*\});$", text, flags=re.M)
+    if m is None:
+        raise SystemExit("api/static/api.js: no 'export const POLL = {...};' line")
+    return json.loads(m.group(1))
+
+
+async def page_load(url: str, key: str, run_id: str, pages: int, joints: list[str], seconds: float) -> dict:
+    """``pages`` technician's pages: each polls /health; even ones watch the run (GET
+    /runs/{id} + the event stream), odd ones show the bench (GET /joints/{id} per joint)."""
+    poll = page_pattern()
+    lat: list[float] = []
+    by_kind: dict[str, list[float]] = {}
+    errors = 0
+    sse_events = 0
+    stop_at = time.monotonic() + seconds
+    headers = {"Authorization": f"Bearer {key}"}
+    limits = httpx.Limits(max_connections=3 * pages + 5, max_keepalive_connections=3 * pages + 5)
+    async with httpx.AsyncClient(base_url=url, headers=headers, timeout=10, limits=limits) as c:
+        async def timed(path: str):
+            nonlocal errors
+            t0 = time.perf_counter()
+            try:
+                ok = (await c.get(path)).status_code == 200
+            except httpx.HTTPError:
+                ok = False
+            lat.append(time.perf_counter() - t0)
+            by_kind.setdefault(path.split("/")[1], []).append(lat[-1])
+            errors += not ok
+
+        async def every(period_ms: float, offset: float, paths: list[str]):
+            period = period_ms / 1e3
+            await asyncio.sleep(offset * period)          # pages were not opened in the same ms
+            while time.monotonic() < stop_at:
+                t0 = time.perf_counter()
+                await asyncio.gather(*[timed(p) for p in paths])     # the page's Promise.all
+                await asyncio.sleep(max(0.0, period - (time.perf_counter() - t0)))
+
+        async def sse():
+            nonlocal sse_events, errors
+            try:
+                async with c.stream("GET", f"/runs/{run_id}/events",
+                                    params={"after": -1, "sample_hz": poll["sample_hz"]},
+                                    timeout=httpx.Timeout(10, read=seconds + 10)) as r:
+                    errors += r.status_code != 200
+                    async for line in r.aiter_lines():
+                        if line.startswith("event:"):
+                            sse_events += 1
+                        if time.monotonic() >= stop_at:
+                            return
+            except httpx.HTTPError:
+                errors += 1
+
+        tasks = []
+        for i in range(pages):
+            offset = i / pages
+            tasks.append(every(poll["health_ms"], offset, ["/health"]))
+            if i % 2 == 0:
+                tasks += [every(poll["run_ms"], offset, [f"/runs/{run_id}"]), sse()]
+            else:
+                tasks.append(every(poll["joints_ms"], offset, [f"/joints/{j}" for j in joints]))
+        await asyncio.gather(*tasks)
+    return {"latencies": lat, "errors": errors, "sse_events": sse_events, "by_kind": by_kind}
+
+
 def overruns(c: httpx.Client) -> int:
     return c.get("/health").json()["host_overruns"] or 0
 
@@ -138,6 +212,10 @@ def wait_state(c: httpx.Client, run_id: str, states, timeout: float = 60) -> dic
 
 def main() -> None:
     ap = argparse.ArgumentParser()
+    ap.add_argument("--pattern", choices=("poll", "page"), default="poll",
+                    help="poll: --clients polling one run + one SSE stream; page: --pages open pages "
+                         "following the page's own request pattern")
+    ap.add_argument("--pages", type=int, default=20, help="--pattern page: open pages")
     ap.add_argument("--clients", type=int, default=50)
     ap.add_argument("--poll", type=float, default=0.2, help="s between one client's polls")
     ap.add_argument("--seconds", type=float, default=5.0, help="length of one quiet and of one loaded phase")
@@ -176,22 +254,33 @@ def main() -> None:
             # a pause as hundreds of missed periods, in whichever phase it falls
             r = c.post("/runs", json={"procedure": "calibrate", "options": {"plots": False, "search_cycles": 10}})
             run_id = r.json()["id"]
+            joints = [j["id"] for j in c.get("/joints").json()["joints"]]
             wait_state(c, run_id, ("running",))
             time.sleep(3.0)                              # past rig start-up
             # alternate quiet and loaded phases: the machine is shared, its background load
             # drifts, and adjacent phases see about the same background
             base, loaded, rounds = 0, 0, []
             res = {"latencies": [], "errors": 0, "sse_events": 0}
+            by_kind: dict[str, list[float]] = {}
+            measured = 0
             for _ in range(args.rounds):
                 o0 = overruns(c)
                 time.sleep(args.seconds)
                 o1 = overruns(c)
-                part = asyncio.run(load(url, key, run_id, args.clients, args.poll, args.seconds))
+                if args.pattern == "page":
+                    part = asyncio.run(page_load(url, key, run_id, args.pages, joints, args.seconds))
+                else:
+                    part = asyncio.run(load(url, key, run_id, args.clients, args.poll, args.seconds))
                 o2 = overruns(c)
+                if c.get(f"/runs/{run_id}").json()["state"] != "running":
+                    break           # the calibration ended in this round: no control loop to compare
+                measured += 1
                 base, loaded = base + o1 - o0, loaded + o2 - o1
                 rounds.append(f"{o1 - o0} / {o2 - o1}")
                 for k in res:
                     res[k] += part[k]
+                for k, v in part.get("by_kind", {}).items():
+                    by_kind.setdefault(k, []).extend(v)
             still = c.get(f"/runs/{run_id}").json()["state"]
             c.post(f"/runs/{run_id}/cancel")
             final = wait_state(c, run_id, ("succeeded", "failed", "cancelled", "interrupted"), 120)
@@ -231,14 +320,28 @@ def main() -> None:
     sched = f"SCHED_FIFO {args.rt_priority}" if args.rt_priority else "normal scheduling"
     print(f"run processes: {sched}; CPUs: {where}; clients on {'the server CPU' if args.client_cpus == 'server' and placement else 'any CPU'}"
           f"{f', nice {args.client_nice}' if args.client_nice else ''}\n")
+    if measured < args.rounds:
+        print(f"**the calibration ended ({still}) in round {measured + 1} of {args.rounds}: only {measured} "
+              f"round(s) counted**\n")
     print("| metric | value | target |")
     print("|---|---|---|")
-    total = args.rounds * args.seconds
+    total = measured * args.seconds
     periods = int(total / 0.001)
-    print(f"| GET /runs/{{id}} requests ({args.clients} clients, every {args.poll:g} s, {total:g} s) "
-          f"| {len(lat)} ({res['errors']} errors) | |")
+    if args.pattern == "page":
+        p = page_pattern()
+        print(f"| requests of {args.pages} open pages ({total:g} s): /health every {p['health_ms']} ms; "
+              f"{(args.pages + 1) // 2} on the live view: GET /runs/{{id}} every {p['run_ms']} ms + event stream at "
+              f"{p['sample_hz']} Hz; {args.pages // 2} on the bench view: GET /joints/{{id}} x{len(joints)} every "
+              f"{p['joints_ms']} ms | {len(lat)} ({res['errors']} errors) | |")
+    else:
+        print(f"| GET /runs/{{id}} requests ({args.clients} clients, every {args.poll:g} s, {total:g} s) "
+              f"| {len(lat)} ({res['errors']} errors) | |")
     print(f"| latency p50 / p90 / p99 / max [ms] | {pct(lat, 50):.1f} / {pct(lat, 90):.1f} / {pct(lat, 99):.1f} / "
           f"{max(lat):.1f} | p99 <= 50 |")
+    for kind, xs in sorted(by_kind.items()):
+        xs = [x * 1e3 for x in xs]
+        print(f"| latency of /{kind}... p50 / p99 / max [ms], n={len(xs)} | {pct(xs, 50):.1f} / {pct(xs, 99):.1f} / "
+              f"{max(xs):.1f} | |")
     print(f"| SSE events received during load | {res['sse_events']} | |")
     # (no CPU-per-request row: the realtime pacer yield-spins the end of every period, so the
     # server process fills its core either way and CPU time says nothing about the requests)

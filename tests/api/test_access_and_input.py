@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import os
 import stat
+from pathlib import Path
 
 import pytest
 
+import api
 from virtual_drives.joint import simulate_record
 from virtual_drives.presets import preset
 
@@ -25,6 +27,26 @@ def test_wrong_key_is_401_and_health_is_open(live):
         assert c.get("/joints").status_code == 401
         assert c.post("/estop").status_code == 401          # not even an e-stop from a stranger
         assert c.get("/health").status_code == 200
+
+
+def test_page_is_open_but_holds_no_data_and_whoami_needs_a_key(live, observer, admin):
+    with live.client() as c:
+        page = c.get("/")
+        assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+        assert 'id="estop"' in page.text
+        js = c.get("/static/api.js")
+        assert js.status_code == 200 and "javascript" in js.headers["content-type"]
+        # everything is served from here: no file of the page names another host (no CDN)
+        static = Path(api.__file__).with_name("static")
+        assert {f.name for f in static.iterdir()} >= {"index.html", "api.js", "app.js", "plot.js", "style.css"}
+        for f in static.iterdir():
+            text = c.get(f"/static/{f.name}").text
+            assert "://" not in text, f.name
+        assert c.get("/static/../auth.py").status_code == 404        # only the static folder is served
+        assert c.get("/static/nope.js").status_code == 404
+        assert c.get("/whoami").status_code == 401
+    assert observer.get("/whoami").json()["role"] == "observer"
+    assert admin.get("/whoami").json()["role"] == "admin"
 
 
 def test_roles(live, observer, operator, admin):

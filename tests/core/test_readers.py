@@ -85,6 +85,15 @@ def test_formats_round_trip(tmp_path):
     assert got.qd is not None and got.reading["columns"]["tau"] == "tau_j2 - g_j2"
 
 
+def test_duplicate_timestamps_are_dropped_and_reported():
+    rec = simulate_record(PRESETS["j3"], *PRESETS["j3"].excitation, duration=2.0, seed=5309).record
+    dup = np.sort(np.concatenate([np.arange(len(rec.t)), [10, 500, 501, 1500]]))
+    raw = Record(t=rec.t[dup], tau=rec.tau[dup], q=rec.q[dup], meta=dict(rec.meta))
+    got = read_record(raw.to_csv().encode(), name="dup.csv")
+    assert got.reading["resampling"]["duplicates_dropped"] == 4 and not got.reading["resampling"]["resampled"]
+    np.testing.assert_allclose(got.q, rec.q, rtol=1e-9)   # the CSV keeps 10 digits
+
+
 def test_units_and_columns_give_the_si_parameters(tmp_path):
     for joint, pos, tq, fq, ft in (("j3", "deg", "mN*m", 180 / np.pi, 1e3), ("linear", "mm", "N", 1e3, 1.0)):
         spec = PRESETS[joint]
@@ -197,9 +206,10 @@ def test_bad_input_is_one_line(content, options, expect):
 
 
 def test_mat_without_the_variable_and_decreasing_time_on_the_command_line(tmp_path):
+    """Exit 2 and one line on the command line; the .mat case in-process (same error path)."""
     savemat(tmp_path / "m.mat", {"time": np.arange(50) / 1e3, "trq": np.ones(50), "ang": np.arange(50.0)})
-    r = run("analyze", tmp_path / "m.mat", "--columns", "t=time,tau=torque,q=ang", "--inertia", "1")
-    assert r.returncode == 2 and "no column 'torque'" in r.stderr and "time, trq, ang" in r.stderr
+    with pytest.raises(InputError, match=r"no column 'torque' \(for tau\); the file's columns: time, trq, ang"):
+        read_record(tmp_path / "m.mat", columns="t=time,tau=torque,q=ang", inertia=1)
     p = tmp_path / "back.csv"
     p.write_text("# inertia: 1\nt,tau,q\n" + "".join(f"{(i if i != 30 else 12) / 1000},{i},{i}\n" for i in range(60)))
     r = run("analyze", p)
