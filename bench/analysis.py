@@ -69,7 +69,6 @@ class Analysis:
                                     self.predictability(), lugre["Fc"], d.replay_rms)
         return doc
 
-<<<<<<< HEAD
     def predictability(self) -> dict:
         """How much of the final residual the joint's state predicts on held-out segments
         (computed once: report() is called for the JSON, the HTML and the CLI)."""
@@ -79,8 +78,6 @@ class Analysis:
             d.final_predictability = assess_predictability(data.c, data.friction - d.contexts[-1].model, d.cv)
         return d.final_predictability
 
-=======
->>>>>>> main
     def reading(self) -> dict:
         """What reading did to the file: format and columns, unit conversions to SI,
         resampling and segments (used: with scored samples)."""

@@ -122,13 +122,9 @@ class Diagnosis:
     steps: list[Step]
     remaining: list[Screen]        # last screening of effects not added
     contexts: list[Context]        # model state before each step and at the end
-<<<<<<< HEAD
     cv: CrossValidation | None = None   # the held-out motion segments everything was scored on
     final_predictability: dict | None = None   # of the final residual, once assessed
     replay_rms: float = 0.0        # what a perfect model leaves on this record (bench.perfect_model)
-=======
-    cv: CrossValidation | None = None   # the held-out scoring every step used
->>>>>>> main
 
     def entries(self) -> list[dict]:
         """Ranked diagnosis list of the JSON contract: the effects of the final model in the

@@ -14,10 +14,7 @@ from __future__ import annotations
 
 import io
 import math
-<<<<<<< HEAD
-=======
 import re
->>>>>>> main
 from pathlib import Path
 
 import numpy as np
@@ -160,38 +157,14 @@ def _format(raw: bytes, name: str) -> str:
 
 
 def _text(raw: bytes, name: str):
-<<<<<<< HEAD
-=======
     """Delimited text, parsed by Arrow's CSV reader (a 10-minute log in well under a second);
     ``#`` metadata lines and blank lines are taken out first."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
->>>>>>> main
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{name}: not UTF-8 text (and not Parquet or MATLAB .mat)") from None
-<<<<<<< HEAD
-    meta, rows = split_metadata(text)
-    if not rows:
-        raise InputError(f"{name}: no header row and no data")
-    delim = _delimiter(rows[0])
-    split = (lambda s: s.split()) if delim is None else (lambda s: [c.strip() for c in s.split(delim)])
-    header = [h.strip().strip('"') for h in split(rows[0])]
-    body = rows[1:]
-    if all(_is_number(h) for h in header):   # no header: columns are numbered
-        header, body = [str(i + 1) for i in range(len(header))], rows
-    if len(set(header)) != len(header):
-        raise InputError(f"{name}: duplicate column names in header")
-    cells = [split(r) for r in body]
-    for r, c in enumerate(cells, start=1):
-        if len(c) != len(header):
-            raise InputError(f"{name}: data row {r} has {len(c)} fields, header has {len(header)}")
-    cols = list(zip(*cells)) if cells else [()] * len(header)
-    decimal_comma = delim != "," and any("," in c for c in (cells[0] if cells else []))
-    table = {h: [x.strip('"').replace(",", ".") if decimal_comma else x.strip('"') for x in col]
-             for h, col in zip(header, cols)}
-=======
     meta, body = {}, text
     if "#" in text:
         meta = split_metadata("\n".join(_META.findall(text)))[0]
@@ -222,13 +195,10 @@ def _text(raw: bytes, name: str):
         msg = str(e).splitlines()[0]
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
->>>>>>> main
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
     return table, meta, fmt
 
 
-<<<<<<< HEAD
-=======
 _META = re.compile(r"^[ \t]*(#.*)$\n?", re.M)
 _LEADING = re.compile(r"^[ \t]+|[ \t]+(?=\r?$)", re.M)    # leading and trailing blanks
 _SPACES = re.compile(r"[ \t]+")
@@ -245,7 +215,6 @@ def _line(text: str, k: int) -> str:
     return text[at:end if end >= 0 else None]
 
 
->>>>>>> main
 def _delimiter(header: str):
     for d in ("\t", ";", ","):
         if d in header:
@@ -301,14 +270,9 @@ def _mat(raw: bytes, name: str):
         raise InputError(f"{name}: MATLAB v7.3 (HDF5) file; save it with -v7 (or as CSV)")
     try:
         mat = loadmat(io.BytesIO(raw), squeeze_me=True, struct_as_record=False)
-<<<<<<< HEAD
-    except (ValueError, TypeError, NotImplementedError, OSError) as e:
-        raise InputError(f"{name}: unreadable MATLAB file ({str(e).splitlines()[0][:120]})") from None
-=======
     except Exception as e:  # noqa: BLE001 - scipy's reader fails many ways on a broken file
         detail = (str(e).splitlines() or [e.__class__.__name__])[0][:120]
         raise InputError(f"{name}: unreadable MATLAB file ({detail})") from None
->>>>>>> main
     table: dict = {}
     meta: dict = {}
 

@@ -71,13 +71,9 @@ def regularise(rec: Record, name: str = "record") -> Record:
         report["segments"] = [_segment(t)]
         out.reading = dict(rec.reading, resampling=report)
         return out
-<<<<<<< HEAD
-    held = str(meta.get("torque_hold", "auto")).lower() == "zoh" and float(meta.get("inertia", 1.0) or 0.0) != 0.0
-=======
     # a command held until the next one is held on the grid too; a friction column (inertia 0)
     # is a measurement, sampled
     held = str(meta.get("torque_hold", "auto")).lower() == "zoh" and meta.get("inertia") not in (0, 0.0, "0")
->>>>>>> main
     pieces: list[dict] = []
     dropped: list[dict] = []
     for a, b in zip(np.concatenate(([0], gaps + 1)), np.concatenate((gaps + 1, [len(t)]))):

@@ -187,25 +187,15 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     hold = hold or torque_hold(rec, name)
     if hold == "auto":
         hold = "zoh"
-<<<<<<< HEAD
-    friction_column = rec.inertia == 0.0   # tau is the friction, sampled: no hold, no q''
-    pieces = [_segment_signals(t[a:b], q[a:b], None if not use_qd else rec.qd[a:b], rec.tau[a:b], dt,
-                               sos_v, hold == "zoh" and not use_qd and not friction_column)
-=======
     pieces = [_segment_signals(t[a:b], q[a:b], None if not use_qd else rec.qd[a:b], rec.tau[a:b], dt,
                                sos_v, hold == "zoh" and not use_qd)
->>>>>>> main
               for a, b in bounds]
     cat = (lambda k: pieces[0][k]) if len(pieces) == 1 else (lambda k: np.concatenate([p[k] for p in pieces]))
     c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=cat("v_mid"), q_mid=cat("q_mid"),
                     t_mid=cat("t_mid"), decim=decim, t=np.empty(0),
                     q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
-<<<<<<< HEAD
                     frequency=f_exc, periodic=periodic, sos=sos, segments=bounds,
                     velocity_source=source)
-=======
-                    frequency=f_exc, sos=sos, segments=bounds, velocity_source=source)
->>>>>>> main
     c.t = c.decimate(t)
     c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(cat("v_raw")), c.lowpass(cat("a_raw")), c.lowpass(cat("tau_raw"))
     return c
