@@ -45,16 +45,25 @@ def test_hidden_effect_is_named_first_and_adding_it_cuts_the_error(effect, joint
 
 
 @pytest.mark.parametrize("joint,seed", [("j3", 5071), ("rotary", 5071), ("rotary", 5073)])
-def test_shallow_stribeck_dip_is_still_named_first(joint, seed):
+def test_shallow_stribeck_dip_is_named_when_it_matters(joint, seed):
     """Shallow dips (j3: 10 % of Fc, rotary: 25 %): a different exponent leaves little once
-    LuGre re-adjusts alpha and Fs, so a 30 % error cut is not reachable above the noise
-    floor; the effect must still be named first and significant, and adding it must lower
-    the held-out error."""
+    LuGre re-adjusts alpha and Fs.  Where what it leaves is worth naming (>= MIN_EFFECT of
+    Fc: rotary 5073, ~2 %), the effect is named first and lowers the held-out error; where it
+    is not (j3 and rotary 5071: 0.03 % and 0.3 % of Fc), nothing is named and nothing is left
+    to explain — LuGre describes the joint to well within what matters."""
+    from bench.diagnosis import MIN_EFFECT
     sim, texts = simulate_scenario(PRESETS[joint], ["stribeck_shape"], seed)
     doc = analyze_record(sim.record).report()
+    fc = PRESETS[joint].friction.Fc
     top = doc["diagnosis"][0]
-    assert top["effect"] == "stribeck_shape" and top["significant"], (texts, doc["diagnosis"][:3])
-    assert doc["final"]["rms_error"] < doc["baseline"]["rms_error"]
+    removed = (max(top["rms_before"] ** 2 - top["rms_after"] ** 2, 0.0)) ** 0.5
+    if removed >= 2 * MIN_EFFECT * fc:
+        assert top["effect"] == "stribeck_shape" and top["significant"], (texts, doc["diagnosis"][:3])
+        assert doc["final"]["rms_error"] < doc["baseline"]["rms_error"]
+    else:
+        assert not any(d["significant"] for d in doc["diagnosis"]), (texts, doc["diagnosis"][:3])
+        assert not doc["unexplained"]["structured"], doc["unexplained"]
+    assert (joint, seed) != ("rotary", 5073) or top["significant"], (texts, removed / fc)
 
 
 @pytest.mark.parametrize("joint,effects,seed", [
