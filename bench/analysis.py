@@ -66,7 +66,7 @@ class Analysis:
         data = self.ident.data
         floor = noise_floor(data.c, self.record.tau, self.record.q, self.ident.inertia, data.mask)
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor,
-                                    self.predictability(), lugre["Fc"], d.replay_rms)
+                                    self.predictability(), data.coulomb, d.replay_rms)
         return doc
 
     def predictability(self) -> dict:
@@ -160,7 +160,7 @@ def _diagnose(ident: Identification, rec: Record, add):
 
     def leftover(residual):
         p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)
-        return p["relies_on"] if structured(p, diag.model.values["Fc"], diag.replay_rms) else []
+        return p["relies_on"] if structured(p, data.coulomb, diag.replay_rms) else []
     return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
 
 

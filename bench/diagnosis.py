@@ -242,7 +242,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         for sc in screens:
             if sc.effect in rejected:
                 sc.significant = False
-            elif sc.significant and sc.mse_before - sc.mse_after < (MIN_EFFECT * model.values["Fc"]) ** 2:
+            elif sc.significant and sc.mse_before - sc.mse_after < (MIN_EFFECT * data.coulomb) ** 2:
                 sc.significant = False
             elif sc.significant and replay is not None:
                 if sc.effect not in artifact:

@@ -45,6 +45,9 @@ class FitData:
     mask: np.ndarray          # samples scored (filter edges and start-up excluded)
     z0: float
     revolute: bool = True     # gravity (sin q, cos q) is a candidate nuisance term
+    # the Coulomb level read off the map's high-speed line (eq. 8): the scale of "worth naming",
+    # robust where a distorted dynamic fit is not
+    coulomb: float = float("nan")
 
     @property
     def n(self) -> int:

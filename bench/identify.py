@@ -125,6 +125,7 @@ def section3_estimates(data: FitData, M: float, name: str = "record", revolute: 
     c = data.c
     v, q = c.v, c.q
     Fc, s2, vmax, other = _check_sliding(c, data.friction, name, revolute)
+    data.coulomb = Fc
     # the steps below read the map: without the offset/gravity found above (the dynamic fit
     # still sees them, and the diagnosis names them)
     F = data.friction - other
