@@ -160,7 +160,9 @@ def _diagnose(ident: Identification, rec: Record, add):
 
     def leftover(residual):
         p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)
-        return p["relies_on"] if structured(p, data.coulomb, diag.replay_rms) else []
+        if not structured(p, data.coulomb, diag.replay_rms):
+            return [], 0.0
+        return p["relies_on"], p["structured_rms"]
     return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
 
 

@@ -341,20 +341,27 @@ def drop_absorbers(data: FitData, diag: Diagnosis, meta: dict, inertia: float, l
     residual depends on (empty when nothing is left).  If what the final model leaves still
     depends on an added effect's own signals (cogging fitted to a cubic in position, say), its
     physics did not hold: it is dropped and the verdict speaks of physics outside the
-    library.  Effects the user forced with --add stay."""
+    library.  So is an effect that removed less than the structure left behind: it took a
+    part of something larger, not its cause.  Effects the user forced with --add stay."""
     while True:
-        relies = leftover(data.friction - diag.contexts[-1].model)
+        relies, left = leftover(data.friction - diag.contexts[-1].model)
         top = set(relies[:2])
-        suspects = [s for s in diag.steps if not s.removed and not s.forced
-                    and top & set(get(s.effect).signals)]
+
+        def removed(s):
+            return math.sqrt(max(s.rms_before ** 2 - (s.rms_after or 0.0) ** 2, 0.0))
+        kept = [s for s in diag.steps if not s.removed and not s.forced]
+        suspects = [s for s in kept if top & set(get(s.effect).signals)] if relies else []
+        suspects += [s for s in kept if relies and removed(s) < left and s not in suspects]
         if not suspects:
             return diag
         step = suspects[-1]
         trial = _evaluate(data, _without(data, diag.model, step.effect), diag.cv, meta, inertia)
         step.removed = True
-        step.evidence += (f" — but not credited: what the model leaves with it still depends on "
-                          f"{' and '.join(sorted(top & set(get(step.effect).signals)))}, so it only "
-                          f"absorbed part of a structure its physics does not explain")
+        own = sorted(top & set(get(step.effect).signals))
+        step.evidence += (" — but not credited: " + (
+            f"what the model leaves with it still depends on {' and '.join(own)}" if own else
+            f"it removed {removed(step):.3g}, less than the structure left behind ({left:.3g})")
+            + ", so it only absorbed part of a structure its physics does not explain")
         diag.model, diag.final_rms = trial.model, trial.rms
         diag.contexts.append(trial.ctx)
         _rechain(diag.steps, diag.baseline_rms, trial.rms)

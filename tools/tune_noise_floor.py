@@ -24,7 +24,11 @@ def main():
     ap.add_argument("--conditions", default="all")
     ap.add_argument("--joints", default=",".join(PRESETS))
     ap.add_argument("--effects", default="none")
+    ap.add_argument("--outside", action="store_true",
+                    help="instead: physics outside the library (virtual_drives.outside_physics)")
     a = ap.parse_args()
+    if a.outside:
+        return outside(a)
     conds = list(CONDITIONS) + list(EXTRA_CONDITIONS) if a.conditions == "all" else a.conditions.split(",")
     joints = a.joints.split(",")
     bad = 0
@@ -62,6 +66,26 @@ def main():
                           f"pred={u['predicted_fraction']:+.2f} t={u['predicted_t']:.1f} "
                           f"size={u['structured_vs_coulomb']:.4f} relies={u['relies_on']} "
                           + " ".join(f"{k}{v:+.1%}" for k, v in err.items()), flush=True)
+    print("not ok:", bad)
+
+
+def outside(a):
+    """Each kind of outside physics on each joint: nothing credited, verdict 'unexplained'."""
+    from virtual_drives.outside_physics import KINDS, outside_record
+    bad = 0
+    for kind in KINDS:
+        for joint in a.joints.split(","):
+            for s in range(a.seeds):
+                seed = 1000 + 31 * s + zlib.crc32(f"{kind}{joint}".encode()) % 500
+                rec, text = outside_record(PRESETS[joint], kind, seed)
+                doc = analyze_record(rec).report()
+                u = doc["unexplained"]
+                credited = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
+                ok = not credited and not doc["final"]["effects"] and u["structured"]
+                bad += not ok
+                print(f"{'ok  ' if ok else 'FAIL'} {kind:28s} {joint:6s} {seed} {text:40s} credited={credited} "
+                      f"structured={u['structured']} pred={u['predicted_fraction']:+.2f} t={u['predicted_t']:.1f} "
+                      f"size={u['structured_vs_coulomb']:.4f} relies={u['relies_on']}", flush=True)
     print("not ok:", bad)
 
 
