@@ -39,7 +39,7 @@ ACK_WAIT = 2.0           # s: longest wait for the server to release the joints 
 SWITCH_INTERVAL = float(os.environ.get("BENCH_SWITCH_INTERVAL", "0.0005"))
 
 
-def main(spec: dict, ctrl, status, estop_conn) -> None:
+def main(spec: dict, ctrl, status, estop_conn, armed=None) -> None:
     """Process entry point (``multiprocessing.Process`` target)."""
     # Ctrl-C on `bench serve` reaches the whole process group: the server cancels its runs
     # in order (ramp-down) instead of every control loop dying mid-period
@@ -58,22 +58,24 @@ def main(spec: dict, ctrl, status, estop_conn) -> None:
         why_not = set_priority(int(spec["rt_priority"]))
         if why_not:
             log.warning(why_not)
-    child = ChildRun(spec, ctrl, status, estop_conn)
+    child = ChildRun(spec, ctrl, status, estop_conn, armed)
     # a terminate() (the multiprocessing atexit of a server that never shut down) is a cancel
     signal.signal(signal.SIGTERM, lambda *_: child.cancel.set("the run's control process was terminated"))
     child.run()
 
 
 class ChildRun:
-    def __init__(self, spec: dict, ctrl, status, estop_conn):
+    def __init__(self, spec: dict, ctrl, status, estop_conn, armed=None):
         from api.safety import EStop
         from procedures.events import Cancel
+        self.armed = armed
         self.spec = spec
         self.run_id: str = spec["run_id"]
         self.procedure: str = spec["procedure"]
         self.cfg = spec["cfg"]
         self.cancel = Cancel()
-        self.estop = EStop()
+        # an e-stop still in the pipe (the listener not scheduled yet) counts before any enable
+        self.estop = EStop(pending=lambda: _pending(estop_conn))
         self.estop.on_trigger(self._on_estop)
         self.estopped: str | None = None
         self.parent_gone = False
@@ -225,6 +227,8 @@ class ChildRun:
         return state, error
 
     def _wrap(self, drives: dict) -> dict:
+        if self.armed is not None:
+            self.armed.value = 1      # from now on the server waits for this process's e-stop reply
         guarded = self.estop.wrap(drives, self.run_id)
         self.drives.update(guarded)
         return guarded
@@ -291,6 +295,13 @@ class ChildRun:
         result["progress"] = 1.0 if state == "succeeded" else self.progress
         self.store.hold = None
         self._finish(state, result, error)
+
+
+def _pending(conn) -> bool:
+    try:
+        return conn.poll(0)
+    except (OSError, EOFError, ValueError):
+        return False
 
 
 def _scheduling() -> dict:
