@@ -104,7 +104,7 @@ def cancel_run(run_id: str, svc: Service = Depends(service), _=Depends(operator)
 
 
 @router.get("/runs/{run_id}/trace.csv", response_class=Response, responses={
-    **E.non_json(401, 403, 404, 409, 422),
+    **E.non_json(401, 413, 429, 403, 404, 409, 422),
     200: {"content": {"text/csv": {"schema": {"type": "string"}}}, "description": "record CSV"}},
     summary="One joint's trace as a record CSV (partial while running or after a cancel)")
 def read_trace_csv(run_id: str, joint: Optional[str] = Query(None, max_length=64),
@@ -121,7 +121,7 @@ def read_trace_csv(run_id: str, joint: Optional[str] = Query(None, max_length=64
 
 
 @router.get("/runs/{run_id}/report", response_class=HTMLResponse, responses={
-    **E.non_json(401, 403, 404, 409, 422),
+    **E.non_json(401, 413, 429, 403, 404, 409, 422),
     200: {"content": {"text/html": {"schema": {"type": "string"}}}, "description": "HTML report"}},
     summary="HTML report with the plots")
 def read_report(run_id: str, joint: Optional[str] = Query(None, max_length=64),
@@ -136,7 +136,7 @@ def _sse(event: str, data: dict, event_id: int | None = None) -> str:
 
 
 @router.get("/runs/{run_id}/events", response_class=StreamingResponse, responses={
-    **E.non_json(401, 403, 404, 422), 200: {"content": {"text/event-stream": {"schema": {"type": "string"}}},
+    **E.non_json(401, 413, 429, 403, 404, 422), 200: {"content": {"text/event-stream": {"schema": {"type": "string"}}},
                          "description": "server-sent events until the run ends"}},
     summary="Live: the run's documents (stages, trials, models, tracking), progress, decimated samples")
 async def run_events(request: Request, run_id: str,

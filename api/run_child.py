@@ -30,9 +30,11 @@ import os
 import signal
 import sys
 import threading
+import time
 
 log = logging.getLogger(__name__)
 STATUS_PERIOD = 0.02     # s: live samples at up to 50 Hz (the SSE maximum), progress, overruns
+PROGRESS_PERIOD = 1.0    # s: progress written to the run record at most this often
 ACK_WAIT = 2.0           # s: longest wait for the server to release the joints before finishing
 # the GIL is handed between threads every 5 ms by default, longer than a 1 ms control period:
 # the e-stop listener and the emulated drives' threads must get in quickly
@@ -44,6 +46,8 @@ def main(spec: dict, ctrl, status, estop_conn, armed=None) -> None:
     # Ctrl-C on `bench serve` reaches the whole process group: the server cancels its runs
     # in order (ramp-down) instead of every control loop dying mid-period
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from api.lifeline import die_with_parent
+    die_with_parent(signal.SIGTERM)     # the forkserver's death (the server's) is a cancel
     if spec.get("cpus"):     # first, while this is the only thread: the others inherit it
         try:
             os.sched_setaffinity(0, spec["cpus"])
@@ -168,12 +172,19 @@ class ChildRun:
                 "overruns": self.overruns()}
 
     def _publish(self) -> None:
-        last = None
+        last, kept, kept_at = None, None, 0.0
         while not self._finished.wait(STATUS_PERIOD):
             doc = self._status_doc()
             if doc != last:
                 self._send(doc)
                 last = doc
+            now = time.monotonic()
+            if doc["progress"] != kept and now - kept_at >= PROGRESS_PERIOD:
+                kept, kept_at = doc["progress"], now
+                try:     # in the record too: a crash of both processes keeps how far it got
+                    self.store.set_progress(self.run_id, kept)
+                except Exception:
+                    log.warning("run %s: could not record progress", self.run_id, exc_info=True)
 
     def _last_drive(self) -> dict:
         out = {}
@@ -222,7 +233,9 @@ class ChildRun:
     def _final_state(self, state: str, error: str | None) -> tuple[str, str | None]:
         if self.estopped is not None:
             return "failed", f"emergency stop: {self.estopped}"
-        if self.parent_gone and state == "cancelled":
+        if self.parent_gone and state in ("cancelled", "succeeded"):
+            # also a run whose last stage (a fit) finished after the server died: nobody was
+            # there to see it end, and the docs promise 'interrupted' (its result is kept)
             return "interrupted", "the service process ended mid-run; the joints were brought to rest"
         return state, error
 

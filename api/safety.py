@@ -160,10 +160,12 @@ def _state_name(state) -> str:
 
 
 class EStop:
-    def __init__(self, pending=None):
+    def __init__(self, pending=None, store=None):
         """``pending()``: True when a trigger is on its way but not handled yet (a run
-        process's e-stop pipe holds a message its listener has not read)."""
+        process's e-stop pipe holds a message its listener has not read).  ``store``: where
+        the latch is kept (``bench.store.Store``); a latch found there is restored now."""
         self._pending = pending
+        self._store = store
         self._latched = threading.Event()
         self.active = False
         self.reason = ""
@@ -174,6 +176,21 @@ class EStop:
         self._lock = threading.Lock()
         self._trigger_lock = threading.Lock()   # one trigger at a time reads the targets' replies
         self._listeners: list = []     # called with the reason after a trigger (runs cancel)
+        latch = store.get_latch() if store is not None else None
+        if latch is not None:          # latched before a crash or a restart: still latched
+            self.active = True
+            self._latched.set()
+            self.reason = latch["reason"]
+            self.triggered_at = latch["triggered_at"]
+            self.last_result = latch["drives"]
+
+    def _persist(self, drives: list | None) -> None:
+        if self._store is None:
+            return
+        try:
+            self._store.set_latch(self.reason, self.triggered_at, drives)
+        except Exception:      # the stop itself has happened; say loudly that it is not kept
+            log.exception("e-stop: could not persist the latch")
 
     def honour_pending(self, wait: float = 2.0) -> None:
         """Before torque goes on: a trigger on its way is waited for (up to ``wait``)."""
@@ -243,6 +260,10 @@ class EStop:
                     log.warning("e-stop: could not reach %r", tg, exc_info=True)
             for d in drives:              # torque off everywhere first: frames, no waiting
                 d.torque_off()
+            # kept at once (beside the confirmations, not in their way): a crash from here on
+            # restarts latched
+            saver = threading.Thread(target=self._persist, args=(None,), name="estop-persist", daemon=True)
+            saver.start()
             reports: list = [None] * len(drives)
 
             def confirm(i: int, d: GuardedDrive) -> None:
@@ -268,6 +289,9 @@ class EStop:
             except Exception:
                 log.exception("e-stop listener failed")
         self.last_result = result
+        if self._store is not None:
+            saver.join(5.0)
+            self._persist(result)
         return {"active": True, "reason": reason, "stop_latency_ms": 1e3 * stop_latency,
                 "drives": result}
 
@@ -292,6 +316,8 @@ class EStop:
                 "torque_off": state in {s.value for s in TORQUE_OFF_STATES}, "error": None}
 
     def reset(self) -> None:
+        if self._store is not None:
+            self._store.clear_latch()    # first: a crash during reset leaves it latched
         self._latched.clear()
         self.active = False
         self.reason = ""
