@@ -49,6 +49,7 @@ def simulate(
     """Simulate a virtual joint under tau_m sin(w t) and write a record CSV."""
     try:
         from bench.effects.inject import parse_injections
+        from bench.validate import finite_arrays, friction_parameter, simulate_settings
         from virtual_drives.joint import simulate_record
         from virtual_drives.presets import preset
         spec = preset(joint)
@@ -59,21 +60,25 @@ def simulate(
                 if k not in spec.friction.as_dict(with_delta=True):
                     raise BenchError(f"--param {p!r}: unknown parameter {k!r}; known: Fc, Fs, alpha, sigma0, sigma1, sigma2, delta")
                 try:
-                    changes[k] = float(v)
+                    value = float(v)
                 except ValueError:
                     raise BenchError(f"--param {p!r}: value must be a number") from None
+                changes[k] = friction_parameter(k, value)
             spec = spec.with_(friction=spec.friction.with_(**changes))
         ev, inertia_factor, delta, lag = parse_injections(effect, spec)
+        finite_arrays("--effect", values=ev, inertia_factor=inertia_factor, delta=delta, torque_lag=lag)
         if delta is not None:
             spec = spec.with_(friction=spec.friction.with_(delta=delta))
         a = amplitude if amplitude is not None else spec.excitation[0]
         f = frequency if frequency is not None else spec.excitation[1]
-        if not (a > 0 and f > 0 and duration > 0 and rate > 0):
-            raise BenchError("amplitude, frequency, duration and rate must be positive")
+        # every number checked before anything is allocated (a 1e9 s record, a 1e12 Hz rate)
+        simulate_settings(a, f, duration, rate, seed, torque_noise, encoder_resolution, declared_inertia)
         declared = declared_inertia if declared_inertia is not None else spec.inertia * inertia_factor
         sim = simulate_record(spec, a, f, duration, dt=1.0 / rate, seed=seed, extra=ev,
                               declared_inertia=declared, torque_noise=torque_noise,
                               encoder_resolution=encoder_resolution, torque_lag=lag)
+        r = sim.record
+        finite_arrays(f"joint {spec.name}", t=r.t, tau=r.tau, q=r.q, qd=r.qd)
         if effect:
             sim.record.meta["injected"] = "; ".join(effect)
         sim.record.to_csv(output)
@@ -173,12 +178,37 @@ def _register_plugins() -> None:
 _register_plugins()
 
 
-def main() -> None:
+def run(argv: list[str] | None = None) -> int:
+    """The CLI on ``argv`` (default: the process's); returns the exit status.  Usage errors
+    (unknown option, a value that is not a number, a missing argument) are one line, status
+    2, like every other user error (click would print a framed usage box)."""
+    try:       # typer >= 0.26 carries its own copy of click
+        from typer._click import exceptions as cx
+    except ImportError:
+        from click import exceptions as cx
     try:
-        app()
+        rv = app(args=argv, prog_name="bench", standalone_mode=False)
+    except cx.NoArgsIsHelpError as e:
+        err.print(e.ctx.get_help() if e.ctx is not None else str(e), markup=False, highlight=False)
+        return 2
+    except cx.UsageError as e:
+        where = f"{e.ctx.command_path}: " if e.ctx is not None and e.ctx.command_path else ""
+        err.print(f"error: {where}{' '.join(e.format_message().split())}", markup=False, highlight=False,
+                  soft_wrap=True)
+        return 2
+    except cx.Exit as e:
+        return e.exit_code
+    except cx.Abort:
+        err.print("aborted", markup=False, highlight=False)
+        return 130
     except BenchError as e:  # a plugin command that let one through
-        err.print(f"error: {e}", markup=False, highlight=False)
-        sys.exit(2)
+        err.print(f"error: {' '.join(str(e).split())}", markup=False, highlight=False, soft_wrap=True)
+        return 2
+    return rv if isinstance(rv, int) else 0
+
+
+def main() -> None:
+    sys.exit(run())
 
 
 if __name__ == "__main__":
