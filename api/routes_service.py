@@ -105,7 +105,8 @@ _BINARIES = {"application/vnd.apache.parquet": ".parquet", "application/x-parque
 @router.post("/analyze", response_model=dict[str, Any], tags=["analysis"], openapi_extra=_UPLOAD_DOC,
              responses={**E.AUTH, 413: E._doc("record too large"), 415: E._doc("not a record body")},
              summary="Identify and diagnose an uploaded record (CSV, Parquet or MATLAB .mat); the report JSON")
-async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0, le=1e9, description="M_jj [SI]; 0: the torque column is the friction"),
+async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0, le=1e9, allow_inf_nan=False,
+                                                  description="M_jj [SI]; 0: the torque column is the friction"),
                   columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),

@@ -84,3 +84,43 @@ def finite_arrays(what: str, **arrays) -> None:
     for name, a in arrays.items():
         if a is not None and not np.all(np.isfinite(np.asarray(a, dtype=float))):
             raise InputError(f"{what}: {name} is not finite (the settings make the simulation diverge)")
+
+
+# --- records, before they reach the numerics (bench analyze, POST /analyze) -------------------
+# Physical bounds in SI units (s, N·m or N, rad or m, kg·m² or kg): a record outside them is a
+# unit mistake or a corrupted file, and its numbers would overflow or vanish in the fit.
+RECORD_BOUNDS = {"step": (1e-7, 10.0), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "inertia": (1e-9, 1e12)}
+
+
+def record_magnitudes(rec, inertia: float | None = None, name: str = "record") -> None:
+    """Finite columns within ``RECORD_BOUNDS``: the time step, the torque's largest magnitude,
+    the position's range (the joint moved by more than 1e-9) and its largest magnitude, and
+    the inertia (0 stands for a record whose torque is the friction already)."""
+    import numpy as np
+    cols = {"t": rec.t, "tau": rec.tau, "q": rec.q, "qd": rec.qd}
+    for col, a in cols.items():
+        if a is not None and (len(a) == 0 or not np.all(np.isfinite(a))):
+            raise InputError(f"{name}: column '{col}' is empty or holds NaN or infinite values")
+    lo, hi = RECORD_BOUNDS["step"]
+    if len(rec.t) > 1:
+        step = float(np.median(np.diff(rec.t)))
+        if not lo <= step <= hi:
+            raise InputError(f"{name}: sample step {step:.3g} s is outside {lo:g}..{hi:g} s (is t in seconds?)")
+    lo, hi = RECORD_BOUNDS["tau"]
+    peak = float(np.max(np.abs(rec.tau)))
+    if not lo <= peak <= hi:
+        raise InputError(f"{name}: torque peaks at {peak:.3g}, outside {lo:g}..{hi:g} N·m or N (unit mistake?)")
+    lo, hi = RECORD_BOUNDS["q"]
+    travel, far = float(np.ptp(rec.q)), float(np.max(np.abs(rec.q)))
+    if travel < lo or far > hi:
+        raise InputError(f"{name}: position spans {travel:.3g} (largest |q| {far:.3g}); it must move by at least "
+                         f"{lo:g} and stay within {hi:g} rad or m (unit mistake?)")
+    m = inertia if inertia is not None else rec.meta.get("inertia")
+    if m is not None:
+        lo, hi = RECORD_BOUNDS["inertia"]
+        try:
+            mv = float(m)
+        except (TypeError, ValueError):
+            raise InputError(f"{name}: inertia is not a number: {m!r}") from None
+        if not math.isfinite(mv) or mv != 0 and not lo <= mv <= hi:
+            raise InputError(f"{name}: inertia {mv:.3g} is outside {lo:g}..{hi:g} kg·m² or kg")
