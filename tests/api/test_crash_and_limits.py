@@ -24,7 +24,7 @@ from api_helpers import ServeProcess, sse_events, wait_run
 
 from api.server import free_port
 
-SHORT = {"plots": False, "search_max_trials": 2, "search_cycles": 2.0}
+SHORT = {"plots": False, "search_cycles": 2.0}
 
 
 def _descendants(pid: int) -> set[int]:
