@@ -166,6 +166,8 @@ class EStop:
         the latch is kept (``bench.store.Store``); a latch found there is restored now."""
         self._pending = pending
         self._store = store
+        self._persist_lock = threading.Lock()
+        self._generation = 0           # bumped by reset: a persist of an older trigger is dropped
         self._latched = threading.Event()
         self.active = False
         self.reason = ""
@@ -184,13 +186,23 @@ class EStop:
             self.triggered_at = latch["triggered_at"]
             self.last_result = latch["drives"]
 
-    def _persist(self, drives: list | None) -> None:
+    def _persist(self, drives: list | None, generation: int) -> None:
+        """Keep the latch (in a thread of its own: the run processes write to the same SQLite
+        file, and the e-stop's answer must not wait for its write lock).  A reset since the
+        trigger (``generation``) wins: a late write never re-latches."""
         if self._store is None:
             return
-        try:
-            self._store.set_latch(self.reason, self.triggered_at, drives)
-        except Exception:      # the stop itself has happened; say loudly that it is not kept
-            log.exception("e-stop: could not persist the latch")
+        with self._persist_lock:
+            if generation != self._generation or not self.active:
+                return
+            try:
+                self._store.set_latch(self.reason, self.triggered_at, drives)
+            except Exception:      # the stop itself has happened; say loudly that it is not kept
+                log.exception("e-stop: could not persist the latch")
+
+    def _persist_later(self, drives: list | None) -> None:
+        threading.Thread(target=self._persist, args=(drives, self._generation), name="estop-persist",
+                         daemon=True).start()
 
     def honour_pending(self, wait: float = 2.0) -> None:
         """Before torque goes on: a trigger on its way is waited for (up to ``wait``)."""
@@ -262,8 +274,7 @@ class EStop:
                 d.torque_off()
             # kept at once (beside the confirmations, not in their way): a crash from here on
             # restarts latched
-            saver = threading.Thread(target=self._persist, args=(None,), name="estop-persist", daemon=True)
-            saver.start()
+            self._persist_later(None)
             reports: list = [None] * len(drives)
 
             def confirm(i: int, d: GuardedDrive) -> None:
@@ -289,9 +300,7 @@ class EStop:
             except Exception:
                 log.exception("e-stop listener failed")
         self.last_result = result
-        if self._store is not None:
-            saver.join(5.0)
-            self._persist(result)
+        self._persist_later(result)      # with the drives' reports
         return {"active": True, "reason": reason, "stop_latency_ms": 1e3 * stop_latency,
                 "drives": result}
 
@@ -316,9 +325,11 @@ class EStop:
                 "torque_off": state in {s.value for s in TORQUE_OFF_STATES}, "error": None}
 
     def reset(self) -> None:
-        if self._store is not None:
-            self._store.clear_latch()    # first: a crash during reset leaves it latched
-        self._latched.clear()
-        self.active = False
+        with self._persist_lock:
+            self._generation += 1
+            if self._store is not None:
+                self._store.clear_latch()    # first: a crash during reset leaves it latched
+            self._latched.clear()
+            self.active = False
         self.reason = ""
         self.triggered_at = None
