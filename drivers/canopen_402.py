@@ -77,6 +77,7 @@ class Cia402Drive:
         self.sdo_lock = threading.RLock()   # the node's SDO channel has one user at a time
         self.send_lock = threading.Lock()   # RPDO: the halted check and the frame, together
         self.halted = False                 # e-stop: never enabled again by this object
+        self.stop_acked: DriveState | None = None   # the last stop the drive acknowledged
         self.latched: DriveError | None = None
         self.want = DriveState.DISABLED
         self.cw = CW_SHUTDOWN
@@ -334,6 +335,7 @@ class Cia402Drive:
             saved, sdo.RESPONSE_TIMEOUT = sdo.RESPONSE_TIMEOUT, min(sdo.RESPONSE_TIMEOUT, 0.1)
             try:
                 sdo[0x6040].raw = cw
+                self.stop_acked = want    # the drive acknowledged the stop (SDO reply)
             except Exception:
                 pass
             finally:
@@ -360,20 +362,24 @@ class Cia402Drive:
         """The drive's own state after ``torque_off``, from the statusword of the TPDO that
         answers a SYNC sent here (never an SDO transfer: the control thread may own the
         channel, and a dead drive would cost the SDO timeout); a drive still enabled (an
-        enable in flight crossed the stop) is stopped again.  None: no answer in time."""
+        enable in flight crossed the stop) is stopped again.  A drive its run has just closed
+        answers with the stop it acknowledged on closing (close() disables it by SDO).  None:
+        no answer in time."""
         deadline = time.monotonic() + timeout
         while True:
             bus = self.bus
-            if bus is None or bus.silent:
-                return None
+            if bus is None or bus.silent:     # closed (or closing) by its run meanwhile
+                return self.stop_acked
             try:
                 target = bus.sync_now()
             except Exception:
-                return None
+                return self.stop_acked
             with self.cond:
                 while self._latest is None or self._latest[0] < target:
                     left = deadline - time.monotonic()
-                    if left <= 0 or self.bus is None:
+                    if self.bus is None:
+                        return self.stop_acked
+                    if left <= 0:
                         return None
                     self.cond.wait(left)
                 sw = self._latest[2]

@@ -90,6 +90,7 @@ class OdriveAsciiDrive:
         self.write_lock = threading.Lock()       # whole lines: a stop never splits a command
         self.exchange_lock = threading.RLock()   # request + replies: one reader at a time
         self.halted = False                      # e-stop: torque 0 and never enabled again
+        self.stop_acked: DriveState | None = None  # the last stop the drive acknowledged
         try:
             self.ser = serial.Serial(j["port"], baudrate=j["baudrate"], timeout=0,
                                      write_timeout=max(self.timeout, 0.5))
@@ -288,6 +289,7 @@ class OdriveAsciiDrive:
         saved, self.timeout = self.timeout, min(self.timeout, 0.1)
         try:
             self._exchange(lines + [f"r axis{self.axis}.current_state"], ["i"])
+            self.stop_acked = want     # the drive answered after the stop lines: it has them
         except Exception:
             pass
         finally:
@@ -322,13 +324,15 @@ class OdriveAsciiDrive:
         None: no answer in time."""
         deadline = time.monotonic() + timeout
         while True:
+            if not self.ser.is_open:       # closed by its run meanwhile: the stop it acknowledged
+                return self.stop_acked
             if not self.exchange_lock.acquire(timeout=max(0.0, deadline - time.monotonic())):
                 return None
             saved, self.timeout = self.timeout, min(self.timeout, max(deadline - time.monotonic(), 0.01))
             try:
                 state = self.status().state
             except Exception:
-                return None
+                return None if self.ser.is_open else self.stop_acked
             finally:
                 self.timeout = saved
                 self.exchange_lock.release()
