@@ -9,8 +9,9 @@ small JSON document.
 
 ``AuthFailures`` is a token bucket per client address, charged by every request that fails
 authentication (no key, unknown key): past its burst such a client gets 429 until the bucket
-refills.  Valid keys are never charged, so a technician's client is never throttled by a
-script that got its key wrong... unless both share the address and the script keeps failing.
+refills.  A request with a valid key is never charged nor refused, so a technician's client
+is never throttled by a script on the same address that keeps getting its key wrong.  The
+budget (burst 200, 50/s) is far above what a person or the fuzz test produces.
 """
 from __future__ import annotations
 
@@ -79,8 +80,8 @@ async def _answer(send, status: int, detail: str, close: bool = False) -> None:
 
 class AuthFailures:
     """Token bucket per client address for failed authentications."""
-    BURST = 200          # failed requests a client may make at once (a fuzz run's share stays below)
-    RATE = 50.0          # per second, refilled
+    BURST = 200          # failed requests a client may make at once
+    RATE = 50.0          # per second, refilled: key guessing is hopeless anyway (256-bit keys)
 
     def __init__(self, burst: int = BURST, rate: float = RATE, max_clients: int = 4096):
         self.burst, self.rate, self.max_clients = burst, rate, max_clients
