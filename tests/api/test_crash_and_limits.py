@@ -171,3 +171,31 @@ def test_private_files_under_umask_000_and_untrusted_key_file(tmp_path):
                        env={**os.environ, "BENCH_API_KEY": ""})
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "not trusted" in r.stderr and "writable by group or others" in r.stderr
+
+
+def test_failed_authentications_are_rate_bounded_and_keys_capped(tmp_path):
+    from api.app import ServiceConfig, build_service, create_app
+    from api.auth import MAX_KEYS
+    from api.limits import AuthFailures
+    from api.server import serve_in_thread
+    conf = ServiceConfig(bench="micro2", data_dir=tmp_path / "data", transport="simulated", api_key="")
+    svc, admin_file = build_service(conf)
+    admin = admin_file.read_text().strip()
+    with serve_in_thread(create_app(conf, svc)) as url, httpx.Client(base_url=url, timeout=10) as anon, \
+            httpx.Client(base_url=url, headers={"Authorization": f"Bearer {admin}"}, timeout=10) as c:
+        codes = []         # until refused (bounded: the bucket refills while we send)
+        while (not codes or codes[-1] != 429) and len(codes) < 4000:
+            codes.append(anon.get("/runs", headers={"Authorization": f"Bearer wrong-{len(codes)}"}).status_code)
+        assert codes[-1] == 429, f"{len(codes)} failed authentications and never refused"
+        assert set(codes[:-1]) == {401} and len(codes) > AuthFailures.BURST     # the burst first
+        limited = anon.get("/runs")
+        assert limited.status_code == 429 and int(limited.headers["Retry-After"]) >= 1
+        assert "valid API key" in limited.json()["detail"]
+        assert c.get("/runs").status_code == 200          # a valid key is never throttled
+        assert c.get("/health").status_code == 200
+        made = len(svc.keys.list())
+        for i in range(MAX_KEYS - made):
+            assert c.post("/keys", json={"role": "observer", "name": f"k{i}"}).status_code == 201
+        over = c.post("/keys", json={"role": "observer", "name": "one too many"})
+        assert over.status_code == 409 and "limit" in over.json()["detail"], over.text
+        assert len(c.get("/keys").json()["keys"]) == MAX_KEYS
