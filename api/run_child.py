@@ -300,6 +300,14 @@ class ChildRun:
         end = P.pacer_overruns(self.cfg)
         held_state, held_result, held_error = self.store.held or (None, None, None)
         result = dict(held_result or self.store.get_run(self.run_id)["result"] or {})
+        if report is None and result.get("report") is None and result.get("plan"):
+            # calibrate() was cut short (the e-stop refused the next rig): each joint's
+            # status and reason from the plan it had recorded
+            from procedures.calibration import build_report
+            try:
+                report = build_report(self.store, self.run_id, self.cfg, result["plan"])
+            except Exception:
+                log.warning("run %s: no report from the recorded plan", self.run_id, exc_info=True)
         result["joints"] = P.calibration_summary(report or result.get("report") or {})
         result["control"] = {"clock": self.cfg.clock, "host_overruns": None if start is None or end is None
                              else end - start, "scheduling": _scheduling()}
