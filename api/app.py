@@ -60,7 +60,7 @@ def build_service(conf: ServiceConfig) -> tuple[Service, Path | None]:
         raise InputError(f"{data}: cannot open the run store ({e.strerror or e})") from None
     keys = KeyStore(data, env_key=conf.api_key if conf.api_key is not None else os.environ.get(ENV_KEY) or None)
     admin_file = keys.ensure_admin()
-    estop = EStop()
+    estop = EStop(store=store)         # a latch from before a crash or restart is restored
     placement = cpus.split() if conf.pin_cpus else None
     if placement is not None:
         cpus.pin(placement[0])
@@ -97,6 +97,8 @@ def create_app(conf: ServiceConfig | None = None, service: Service | None = None
     app.state.service = svc
     app.state.closing = False
     errors.install(app)
+    from api.limits import BodyLimit
+    app.add_middleware(BodyLimit)      # body cap before the body is read and before any auth
     from api import routes_joints, routes_page, routes_runs, routes_service
     app.include_router(routes_service.router)
     app.include_router(routes_joints.router)

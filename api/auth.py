@@ -9,6 +9,11 @@ entropy, and a fast hash keeps authentication out of the request latency budget.
 On first start an admin key is generated and written to ``admin.key`` (mode 0600) in the
 data directory; the server prints that file's path, never the key.  The environment variable
 ``BENCH_API_KEY``, when set, is accepted as an admin key (scripts, CI).
+
+The key file is only trusted when this server's user owns it and neither group nor others
+may write it (``bench.private.trusted``): at start-up an untrusted file is refused (one
+line), and a change to it while the server runs is ignored (the keys known stay).  At most
+``MAX_KEYS`` keys exist at once.
 """
 from __future__ import annotations
 
@@ -23,12 +28,18 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from bench.errors import InputError
+from bench.errors import BenchError, InputError
+from bench.private import private_dir, trusted
 
 ROLES = ("observer", "operator", "admin")
 KEYS_FILE = "api_keys.json"
 ADMIN_KEY_FILE = "admin.key"
 ENV_KEY = "BENCH_API_KEY"
+MAX_KEYS = 256          # a bench has a handful of people and scripts; a fuzzer made 4,744
+
+
+class TooManyKeys(BenchError):
+    """The key cap is reached: revoke unused keys first (409)."""
 
 
 @dataclass(frozen=True)
@@ -59,8 +70,7 @@ def _write_private(path: Path, text: str) -> None:
 
 class KeyStore:
     def __init__(self, data_dir: str | Path, env_key: str | None = None):
-        self.dir = Path(data_dir)
-        self.dir.mkdir(parents=True, exist_ok=True)
+        self.dir = private_dir(data_dir)
         self.path = self.dir / KEYS_FILE
         self._lock = threading.Lock()
         self._keys: dict[str, dict] = {}      # digest -> {id, name, role, created}
@@ -77,6 +87,9 @@ class KeyStore:
             return
         if mtime == self._mtime:
             return
+        why = trusted(self.path)
+        if why is not None:
+            raise InputError(f"key file not trusted: {why}")
         try:
             entries = json.loads(self.path.read_text())
             self._keys = {e["sha256"]: e for e in entries}
@@ -107,6 +120,8 @@ class KeyStore:
                  "created": time.time(), "sha256": _digest(key)}
         with self._lock:
             self._load()
+            if len(self._keys) >= MAX_KEYS:
+                raise TooManyKeys(f"{len(self._keys)} API keys exist (limit {MAX_KEYS}); revoke unused ones first")
             self._keys[entry["sha256"]] = entry
             self._save()
         return key, self.public(entry)
@@ -136,7 +151,7 @@ class KeyStore:
         with self._lock:
             try:
                 self._load()
-            except InputError:      # a half-edited file: keep the keys we know
+            except InputError:      # a half-edited or untrusted file: keep the keys we know
                 pass
             e = self._keys.get(digest)
         return None if e is None else Principal(e["id"], e["name"], e["role"])

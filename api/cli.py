@@ -38,8 +38,13 @@ def register(app: typer.Typer) -> None:
         from api.app import ServiceConfig, build_service, create_app
         from api.auth import ENV_KEY
         from api.server import serve_forever
+        from api.server import listen
         if not 0 < port < 65536:
             _fail(f"--port must be in 1..65535, got {port}")
+        try:      # first: a busy port is one line, before the store and keys are touched
+            sock = listen(host, port)
+        except OSError as e:
+            _fail(f"cannot listen on {host}:{port}: {e.strerror or e}")
         try:
             conf = ServiceConfig(bench=bench, data_dir=data, transport=transport, pin_cpus=pin_cpus,
                                  rt_priority=rt_priority)
@@ -65,7 +70,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"  admin key: an admin key exists in {svc.keys.path.resolve()} (hashed); "
                        f"its file was removed — use ${ENV_KEY} or create keys with 'bench api-key'")
         typer.echo(f"  ${ENV_KEY} is {'set: accepted as an admin key' if svc.keys._env_digest else 'not set'}")
-        serve_forever(create_app(conf, svc), host, port, log_level)
+        serve_forever(create_app(conf, svc), host, port, log_level, sock=sock)
 
     @app.command("api-key")
     def api_key_cmd(

@@ -9,6 +9,7 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from api.auth import KeyStore, Principal
+from api.limits import AuthFailures
 from api.runs import RunManager
 from api.safety import EStop
 from bench.store import Store
@@ -27,6 +28,7 @@ class Service:
     runs: RunManager
     analysis_pool: object = None     # lazily created process pool for POST /analyze
     run_cache: OrderedDict = field(default_factory=OrderedDict)   # GET /runs/{id} answers (routes_runs)
+    auth_failures: AuthFailures = field(default_factory=AuthFailures)   # 429 past its budget (api.limits)
 
 
 # The dependencies are async on purpose: FastAPI runs a sync dependency in the thread pool,
@@ -38,15 +40,19 @@ async def service(request: Request) -> Service:
 _bearer = HTTPBearer(auto_error=False, description="API key: observer, operator or admin")
 
 
-async def principal(creds: HTTPAuthorizationCredentials | None = Depends(_bearer),
-              svc: Service = Depends(service)) -> Principal:
+async def principal(request: Request, creds: HTTPAuthorizationCredentials | None = Depends(_bearer),
+                    svc: Service = Depends(service)) -> Principal:
+    p = svc.keys.authenticate(creds.credentials) if creds is not None and creds.credentials else None
+    if p is not None:
+        return p
+    wait = svc.auth_failures.charge(request.client.host if request.client else "?")
+    if wait is not None:     # bounded: a client without a valid key cannot keep the server busy
+        raise HTTPException(429, "too many requests without a valid API key; retry later",
+                            headers={"Retry-After": str(max(1, round(wait)))})
     if creds is None or not creds.credentials:
         raise HTTPException(401, "missing API key: send 'Authorization: Bearer <key>'",
                             headers={"WWW-Authenticate": "Bearer"})
-    p = svc.keys.authenticate(creds.credentials)
-    if p is None:
-        raise HTTPException(401, "invalid API key", headers={"WWW-Authenticate": "Bearer"})
-    return p
+    raise HTTPException(401, "invalid API key", headers={"WWW-Authenticate": "Bearer"})
 
 
 def require(role: str):

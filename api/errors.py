@@ -14,6 +14,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from api.auth import TooManyKeys
 from api.models import ErrorBody
 from api.runs import Conflict, NotFound
 from bench.errors import BenchError, InputError
@@ -33,13 +34,15 @@ def _json_doc(description: str) -> dict:
 
 
 def non_json(*codes: int) -> dict:
-    texts = {401: "no or unknown API key", 403: "the key's role does not allow this",
+    texts = {401: "no or unknown API key", 413: "request body over the cap", 429: "too many requests without a valid API key", 403: "the key's role does not allow this",
              404: "unknown run or joint", 409: "not available yet: the run has not ended / the trace is "
              "being written", 422: "invalid request: the message names the field"}
     return {c: _json_doc(texts[c]) for c in codes}
 
 
-UNAUTHORIZED = {401: _doc("no or unknown API key")}
+UNAUTHORIZED = {401: _doc("no or unknown API key"),
+                413: _doc("request body over the endpoint's cap (refused before it is read)"),
+                429: _doc("too many requests without a valid API key from this address; see Retry-After")}
 FORBIDDEN = {403: _doc("the key's role does not allow this")}
 NOT_FOUND = {404: _doc("unknown run or joint")}
 CONFLICT = {409: _doc("a joint is busy or the e-stop is active")}
@@ -84,7 +87,7 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(BenchError)
     async def bench_error(request: Request, exc: BenchError):
-        status = 404 if isinstance(exc, NotFound) else 409 if isinstance(exc, Conflict) \
+        status = 404 if isinstance(exc, NotFound) else 409 if isinstance(exc, (Conflict, TooManyKeys)) \
             else 422 if isinstance(exc, InputError) else 400
         return JSONResponse({"detail": _one_line(exc)}, status_code=status)
 

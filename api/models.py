@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
 Procedure = Literal["identify", "tracking", "calibrate"]
 RunState = Literal["queued", "running", "succeeded", "failed", "cancelled", "interrupted"]
@@ -12,7 +12,9 @@ JointId = Annotated[str, Field(min_length=1, max_length=64)]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # request bodies: unknown fields refused, NaN and infinities refused as such ("Input should
+    # be a finite number", not a bound's message), booleans only as JSON true/false (StrictBool)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 # --- errors ----------------------------------------------------------------------------------
@@ -92,7 +94,7 @@ class JointList(BaseModel):
 
 
 class CompensationUpdate(Strict):
-    enabled: bool
+    enabled: StrictBool
     model: Optional[str] = Field(None, max_length=128,
                                  description="model id (from a run's result); default: keep the current one, "
                                              "or the joint's newest model")
@@ -103,7 +105,7 @@ class RunOptions(Strict):
     """Everything optional; defaults are the procedures' own.  Shorter settings make test
     runs short."""
     seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the virtual drives' noise")
-    plots: bool = Field(True, description="write PNG plots and the HTML report")
+    plots: StrictBool = Field(True, description="write PNG plots and the HTML report")
     search_max_trials: Optional[int] = Field(None, ge=1, le=30, description="excitation search: most trials")
     search_cycles: Optional[float] = Field(None, ge=1.0, le=10.0, description="excitation search: cycles per trial")
     tracking_period: Optional[float] = Field(None, ge=0.5, le=60.0, description="tracking: reference period [s]")
@@ -116,11 +118,11 @@ class RunOptions(Strict):
 class RunRequest(Strict):
     procedure: Procedure
     joints: Optional[list[JointId]] = Field(
-        None, max_length=16, description="joint ids; default every joint of the bench (a calibration "
+        None, max_length=16, json_schema_extra={"uniqueItems": True}, description="joint ids; default every joint of the bench (a calibration "
                                          "always holds every joint: its rig cycles them all)")
     options: RunOptions = Field(default_factory=RunOptions)
 
-    model_config = ConfigDict(extra="forbid", json_schema_extra={
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={
         "examples": [{"procedure": "identify", "joints": ["j1"], "options": {"search_max_trials": 8}}]})
 
 

@@ -104,7 +104,7 @@ def cancel_run(run_id: str, svc: Service = Depends(service), _=Depends(operator)
 
 
 @router.get("/runs/{run_id}/trace.csv", response_class=Response, responses={
-    **E.non_json(401, 403, 404, 409, 422),
+    **E.non_json(401, 413, 429, 403, 404, 409, 422),
     200: {"content": {"text/csv": {"schema": {"type": "string"}}}, "description": "record CSV"}},
     summary="One joint's trace as a record CSV (partial while running or after a cancel)")
 def read_trace_csv(run_id: str, joint: Optional[str] = Query(None, max_length=64),
@@ -121,7 +121,7 @@ def read_trace_csv(run_id: str, joint: Optional[str] = Query(None, max_length=64
 
 
 @router.get("/runs/{run_id}/report", response_class=HTMLResponse, responses={
-    **E.non_json(401, 403, 404, 409, 422),
+    **E.non_json(401, 413, 429, 403, 404, 409, 422),
     200: {"content": {"text/html": {"schema": {"type": "string"}}}, "description": "HTML report"}},
     summary="HTML report with the plots")
 def read_report(run_id: str, joint: Optional[str] = Query(None, max_length=64),
@@ -130,18 +130,31 @@ def read_report(run_id: str, joint: Optional[str] = Query(None, max_length=64),
     return HTMLResponse(run_report(svc.store, run, procedure_of(run), joint))
 
 
+# one server-sent event: its `data:` line is a JSON object, never a bare string
+SSE_EVENT = {
+    "type": "object", "required": ["event", "data"],
+    "properties": {
+        "id": {"type": "integer", "description": "the document's sequence number (documents only)"},
+        "event": {"type": "string", "description": "start, stage, trial, model, tracking, cancelled, stop "
+                                                  "(the run's documents), progress, sample, end"},
+        "data": {"type": "object", "description": "the document's data, {progress}, {joint: sample}, {state}"}}}
+
+
 def _sse(event: str, data: dict, event_id: int | None = None) -> str:
     head = f"id: {event_id}\n" if event_id is not None else ""
     return f"{head}event: {event}\ndata: {json.dumps(data, default=str)}\n\n"
 
 
 @router.get("/runs/{run_id}/events", response_class=StreamingResponse, responses={
-    **E.non_json(401, 403, 404, 422), 200: {"content": {"text/event-stream": {"schema": {"type": "string"}}},
-                         "description": "server-sent events until the run ends"}},
+    **E.non_json(401, 413, 429, 403, 404, 422), 200: {"content": {"text/event-stream": {
+        "schema": {"type": "string", "description": "a stream of events, each as SSE_EVENT describes"},
+        "itemSchema": SSE_EVENT}},     # OpenAPI 3.2's schema of each item of a sequential media type
+        "description": "server-sent events until the run ends: `id:` (documents only), `event:` (the name), "
+                       "`data:` (one JSON object)"}},
     summary="Live: the run's documents (stages, trials, models, tracking), progress, decimated samples")
 async def run_events(request: Request, run_id: str,
                      after: int = Query(-1, ge=-1, le=2**31, description="resume after this event id"),
-                     sample_hz: float = Query(10.0, ge=0.0, le=50.0, description="live sample rate (0: none)"),
+                     sample_hz: float = Query(10.0, ge=0.0, le=50.0, allow_inf_nan=False, description="live sample rate (0: none)"),
                      last_event_id: Optional[str] = Header(None, max_length=20),
                      svc: Service = Depends(service), _=Depends(observer)):
     await anyio.to_thread.run_sync(get_run, svc, run_id)

@@ -14,12 +14,12 @@ import bench
 from api import errors as E
 from api.auth import Principal
 from api.deps import Service, admin, observer, operator, principal, service
+from api.limits import MAX_UPLOAD        # the body cap itself is enforced by api.limits.BodyLimit
 from api.models import EStopState, Health, KeyCreate, KeyCreated, KeyInfo, KeyList
 from api.runs import Conflict, NotFound
 from bench.errors import InputError
 
 router = APIRouter()
-MAX_UPLOAD = 20 * 1024 * 1024     # bytes: a 1 kHz record of a few hours
 
 
 @router.get("/health", response_model=Health, tags=["service"], summary="Liveness (no key needed)")
@@ -65,7 +65,8 @@ def estop_reset(svc: Service = Depends(service), _=Depends(admin)):
 
 
 # --- keys ----------------------------------------------------------------------------------------
-@router.post("/keys", status_code=201, response_model=KeyCreated, tags=["keys"], responses={**E.AUTH},
+@router.post("/keys", status_code=201, response_model=KeyCreated, tags=["keys"],
+             responses={**E.AUTH, 409: E._doc("the key cap is reached: revoke unused keys first")},
              summary="Create an API key (admin); the key is in this answer only")
 def create_key(body: KeyCreate, svc: Service = Depends(service), _=Depends(admin)):
     key, info = svc.keys.create(body.role, body.name)
@@ -104,7 +105,8 @@ _BINARIES = {"application/vnd.apache.parquet": ".parquet", "application/x-parque
 @router.post("/analyze", response_model=dict[str, Any], tags=["analysis"], openapi_extra=_UPLOAD_DOC,
              responses={**E.AUTH, 413: E._doc("record too large"), 415: E._doc("not a record body")},
              summary="Identify and diagnose an uploaded record (CSV, Parquet or MATLAB .mat); the report JSON")
-async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0, le=1e9, description="M_jj [SI]; 0: the torque column is the friction"),
+async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0, le=1e9, allow_inf_nan=False,
+                                                  description="M_jj [SI]; 0: the torque column is the friction"),
                   columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),
@@ -132,7 +134,9 @@ def _pool(svc: Service) -> ProcessPoolExecutor:
     # a separate process: seconds of numerical work must not take the GIL from control loops
     if svc.analysis_pool is None:
         import multiprocessing
-        svc.analysis_pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+        from api.lifeline import analysis_worker_init
+        svc.analysis_pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=analysis_worker_init)
     return svc.analysis_pool
 
 

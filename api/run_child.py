@@ -30,20 +30,24 @@ import os
 import signal
 import sys
 import threading
+import time
 
 log = logging.getLogger(__name__)
 STATUS_PERIOD = 0.02     # s: live samples at up to 50 Hz (the SSE maximum), progress, overruns
+PROGRESS_PERIOD = 1.0    # s: progress written to the run record at most this often
 ACK_WAIT = 2.0           # s: longest wait for the server to release the joints before finishing
 # the GIL is handed between threads every 5 ms by default, longer than a 1 ms control period:
 # the e-stop listener and the emulated drives' threads must get in quickly
 SWITCH_INTERVAL = float(os.environ.get("BENCH_SWITCH_INTERVAL", "0.0005"))
 
 
-def main(spec: dict, ctrl, status, estop_conn) -> None:
+def main(spec: dict, ctrl, status, estop_conn, armed=None) -> None:
     """Process entry point (``multiprocessing.Process`` target)."""
     # Ctrl-C on `bench serve` reaches the whole process group: the server cancels its runs
     # in order (ramp-down) instead of every control loop dying mid-period
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from api.lifeline import die_with_parent
+    die_with_parent(signal.SIGTERM)     # the forkserver's death (the server's) is a cancel
     if spec.get("cpus"):     # first, while this is the only thread: the others inherit it
         try:
             os.sched_setaffinity(0, spec["cpus"])
@@ -58,22 +62,24 @@ def main(spec: dict, ctrl, status, estop_conn) -> None:
         why_not = set_priority(int(spec["rt_priority"]))
         if why_not:
             log.warning(why_not)
-    child = ChildRun(spec, ctrl, status, estop_conn)
+    child = ChildRun(spec, ctrl, status, estop_conn, armed)
     # a terminate() (the multiprocessing atexit of a server that never shut down) is a cancel
     signal.signal(signal.SIGTERM, lambda *_: child.cancel.set("the run's control process was terminated"))
     child.run()
 
 
 class ChildRun:
-    def __init__(self, spec: dict, ctrl, status, estop_conn):
+    def __init__(self, spec: dict, ctrl, status, estop_conn, armed=None):
         from api.safety import EStop
         from procedures.events import Cancel
+        self.armed = armed
         self.spec = spec
         self.run_id: str = spec["run_id"]
         self.procedure: str = spec["procedure"]
         self.cfg = spec["cfg"]
         self.cancel = Cancel()
-        self.estop = EStop()
+        # an e-stop still in the pipe (the listener not scheduled yet) counts before any enable
+        self.estop = EStop(pending=lambda: _pending(estop_conn))
         self.estop.on_trigger(self._on_estop)
         self.estopped: str | None = None
         self.parent_gone = False
@@ -166,12 +172,19 @@ class ChildRun:
                 "overruns": self.overruns()}
 
     def _publish(self) -> None:
-        last = None
+        last, kept, kept_at = None, None, 0.0
         while not self._finished.wait(STATUS_PERIOD):
             doc = self._status_doc()
             if doc != last:
                 self._send(doc)
                 last = doc
+            now = time.monotonic()
+            if doc["progress"] != kept and now - kept_at >= PROGRESS_PERIOD:
+                kept, kept_at = doc["progress"], now
+                try:     # in the record too: a crash of both processes keeps how far it got
+                    self.store.set_progress(self.run_id, kept)
+                except Exception:
+                    log.warning("run %s: could not record progress", self.run_id, exc_info=True)
 
     def _last_drive(self) -> dict:
         out = {}
@@ -220,11 +233,15 @@ class ChildRun:
     def _final_state(self, state: str, error: str | None) -> tuple[str, str | None]:
         if self.estopped is not None:
             return "failed", f"emergency stop: {self.estopped}"
-        if self.parent_gone and state == "cancelled":
+        if self.parent_gone and state in ("cancelled", "succeeded"):
+            # also a run whose last stage (a fit) finished after the server died: nobody was
+            # there to see it end, and the docs promise 'interrupted' (its result is kept)
             return "interrupted", "the service process ended mid-run; the joints were brought to rest"
         return state, error
 
     def _wrap(self, drives: dict) -> dict:
+        if self.armed is not None:
+            self.armed.value = 1      # from now on the server waits for this process's e-stop reply
         guarded = self.estop.wrap(drives, self.run_id)
         self.drives.update(guarded)
         return guarded
@@ -283,6 +300,14 @@ class ChildRun:
         end = P.pacer_overruns(self.cfg)
         held_state, held_result, held_error = self.store.held or (None, None, None)
         result = dict(held_result or self.store.get_run(self.run_id)["result"] or {})
+        if report is None and result.get("report") is None and result.get("plan"):
+            # calibrate() was cut short (the e-stop refused the next rig): each joint's
+            # status and reason from the plan it had recorded
+            from procedures.calibration import build_report
+            try:
+                report = build_report(self.store, self.run_id, self.cfg, result["plan"])
+            except Exception:
+                log.warning("run %s: no report from the recorded plan", self.run_id, exc_info=True)
         result["joints"] = P.calibration_summary(report or result.get("report") or {})
         result["control"] = {"clock": self.cfg.clock, "host_overruns": None if start is None or end is None
                              else end - start, "scheduling": _scheduling()}
@@ -291,6 +316,13 @@ class ChildRun:
         result["progress"] = 1.0 if state == "succeeded" else self.progress
         self.store.hold = None
         self._finish(state, result, error)
+
+
+def _pending(conn) -> bool:
+    try:
+        return conn.poll(0)
+    except (OSError, EOFError, ValueError):
+        return False
 
 
 def _scheduling() -> dict:

@@ -12,7 +12,9 @@ One reader thread per run receives the child's status messages and hands them to
 manager (``on_message``), so request handlers only read memory.  The e-stop pipe is used by
 ``api.safety.EStop.trigger`` alone: ``estop_send`` to every process first, then
 ``estop_collect`` each reply; a process that does not answer by the deadline is killed
-(SIGKILL).  Its drives then stop on their own: emulated drives live in that process and die
+(SIGKILL).  A process that has not opened a drive yet (``armed``, a byte of shared memory it
+sets first) is not waited for: one just forked may need a second on a loaded machine before
+its listener runs, and it reads the latch from its pipe before it enables anything.  Its drives then stop on their own: emulated drives live in that process and die
 with it, real drives' heartbeat / watchdog (CiA 402 0x1016 consumer heartbeat, ODrive
 watchdog; docs/drives.md) expires within their timeout and they stop.
 """
@@ -31,7 +33,7 @@ EXIT_WAIT = 10.0       # s: a child that sent "done" (or closed its pipe) must h
 # what the forkserver imports once, so that each run's process starts without importing them
 PRELOAD = ["api.run_child", "api.safety", "api.procedures", "bench.store", "bench.analysis",
            "procedures.calibration", "procedures.rig", "drivers.registry", "drivers.canopen_402",
-           "drivers.odrive_ascii", "drivers.simulated", "virtual_drives.launch"]
+           "drivers.odrive_ascii", "drivers.simulated", "virtual_drives.launch", "virtual_drives.warm"]
 
 _ctx = None
 _ctx_lock = threading.Lock()
@@ -45,7 +47,7 @@ def context():
             if "forkserver" in multiprocessing.get_all_start_methods():
                 from multiprocessing import forkserver
                 ctx = multiprocessing.get_context("forkserver")
-                ctx.set_forkserver_preload(PRELOAD)
+                ctx.set_forkserver_preload(["__main__", *PRELOAD])
                 # start it now: it imports PRELOAD in the background, not in the first run's start
                 forkserver.ensure_running()
             else:
@@ -73,8 +75,11 @@ class RunProcess:
         self._ctrl_lock = threading.Lock()
         self._estop_lock = threading.Lock()      # the reader closes the pipe when the process ends
         self._estop_seq = 0
+        # set by the process (shared memory, no relay) before it opens its first drive
+        self.armed = ctx.RawValue("b", 0)
         self.proc = ctx.Process(target=run_child.main, name=f"run-{self.run_id}", daemon=True,
-                                args=(spec, self._ctrl_child, self._status_child, self._estop_child))
+                                args=(spec, self._ctrl_child, self._status_child, self._estop_child,
+                                      self.armed))
         self.reader: threading.Thread | None = None
         self.pid: int | None = None
 
@@ -122,7 +127,9 @@ class RunProcess:
         """The process's drive reports, or (no answer by ``deadline``: killed) one report per
         joint it held, saying so.  A process not started yet has no drive open: it will read
         the e-stop, waiting in its pipe, before anything else (its listener starts first)."""
-        if self.pid is None:
+        if self.pid is None or not self.armed.value:
+            # it has not opened a drive yet: the latch waits in its pipe, and the process reads
+            # it before it enables any drive (api.safety.EStop.pending); nothing to wait for
             return []
         try:
             with self._estop_lock:

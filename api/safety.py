@@ -1,21 +1,26 @@
 """E-stop: torque off on every open drive, from the request thread, never through a queue.
 
 Every drive a run opens is wrapped in a ``GuardedDrive`` and registered with the ``EStop``
-while it is open.  The wrapper serialises the control loop's ``cycle`` with a stop coming
-from another thread (the serial and CANopen drivers are written for one caller at a time),
+while it is open.  The wrapper serialises the control loop's ``cycle`` with the rest of the
+run's calls (the serial and CANopen drivers are written for one caller at a time),
 remembers the newest sample (live samples for SSE and ``GET /joints``, read without touching
 the drive), and refuses to cycle while the e-stop is latched, so a run can never put torque
 back on after an e-stop; its rig sees a ``DriveError`` and stops.
 
-``EStop.trigger`` latches first, then quick-stops every registered drive in parallel (one
-short-lived thread per drive: "at once", and one slow bus cannot delay the others).  A
-stop does not wait for a cycle that is stuck: after ``LOCK_WAIT`` it stops without the lock,
-because safety beats protocol hygiene.  ``reset`` clears the latch (admin only).
+``EStop.trigger`` latches, then commands torque off on every registered drive *first and at
+once* (``torque_off``: one CAN frame / one serial line per drive, sent from this thread
+without waiting for any lock or reply), and only then confirms each drive's state in
+parallel (``confirm_off``: the CANopen statusword from a TPDO answering a SYNC of its own,
+the ODrive axis state between two of the control thread's exchanges) — never through an
+SDO transfer, which the control thread may own and which a dead drive makes wait for its
+timeout.  Drivers without these (the in-process simulated plugs) are quick-stopped under
+their lock as before.  ``reset`` clears the latch (admin only).
 
 The server's runs execute in control processes (``api.run_process``): each one has its own
 ``EStop`` and guarded drives, and is registered with the server's ``EStop`` as a *target*.
 A trigger tells every target at once over its e-stop pipe (before stopping any local drive)
 and collects each process's drive reports; a process that does not answer in time is killed.
+The server's latch is persisted (``api.latch``): it survives a crash and a restart.
 """
 from __future__ import annotations
 
@@ -26,7 +31,8 @@ import time
 from drivers.protocols import DriveFault, DriveState, Sample
 
 log = logging.getLogger(__name__)
-LOCK_WAIT = 0.05        # s: longest an e-stop waits for a control cycle in flight
+LOCK_WAIT = 0.05        # s: longest a legacy (simulated) stop waits for a cycle in flight
+CONFIRM_WAIT = 0.2      # s: longest a drive's torque-off confirmation may take (then: unconfirmed)
 STOP_JOIN = 2.0         # s: longest the e-stop handler waits for the stop threads
 REMOTE_WAIT = 0.5       # s: longest it waits for a run process's reply before killing it
 
@@ -48,7 +54,9 @@ class GuardedDrive:
         self.lock = threading.Lock()
         self.last: Sample | None = None
         self.final_state: str | None = None
+        self.closing = False
         self.closed = False
+        self.closed_event = threading.Event()
 
     def cycle(self, torque: float) -> Sample:
         if self.estop.active:
@@ -61,6 +69,7 @@ class GuardedDrive:
         return s
 
     def enable(self) -> None:
+        self.estop.honour_pending()
         if self.estop.active:
             raise EStopActive(f"{self.name}: emergency stop active; reset it first")
         with self.lock:
@@ -80,6 +89,42 @@ class GuardedDrive:
         with self.lock:
             self.drive.disable()
 
+    # --- e-stop ----------------------------------------------------------------------------------
+    def torque_off(self) -> None:
+        """Torque off now, without the lock (the driver's own ``torque_off`` is safe from any
+        thread and waits for nothing).  Drivers without one are stopped in ``confirm``."""
+        fn = getattr(self.drive, "torque_off", None)
+        if fn is not None:
+            try:
+                fn()
+            except Exception:
+                log.exception("%s: torque_off raised", self.name)
+
+    def confirm(self, timeout: float) -> dict:
+        """The drive's state after ``torque_off``, as the e-stop reports it."""
+        fn = getattr(self.drive, "confirm_off", None)
+        if fn is None:             # a legacy driver: quick stop under the lock, then ask it
+            self.quick_stop()
+            return EStop._report(self)
+        try:
+            state = fn(timeout)
+        except Exception as e:
+            state, why = None, f"{e.__class__.__name__}: {e}"
+        else:
+            why = f"no answer within {timeout * 1e3:.0f} ms after torque off"
+        if state is None and self.closing:    # its run is closing it: the state it was left in
+            self.closed_event.wait(timeout)
+            if self.final_state is not None:
+                return self._stop_report(self.final_state)
+        if state is None:
+            return {"joint": self.name, "run_id": self.run_id, "state": None, "torque_off": None,
+                    "error": f"torque off sent; {why}"}
+        return self._stop_report(_state_name(state))
+
+    def _stop_report(self, state: str) -> dict:
+        return {"joint": self.name, "run_id": self.run_id, "state": state,
+                "torque_off": state in {s.value for s in TORQUE_OFF_STATES}, "error": None}
+
     def status(self):
         with self.lock:
             return self.drive.status()
@@ -87,6 +132,7 @@ class GuardedDrive:
     def close(self) -> None:
         if self.closed:
             return
+        self.closing = True
         try:
             with self.lock:
                 try:    # the state the drive was left in, for GET /joints and the e-stop report
@@ -95,8 +141,11 @@ class GuardedDrive:
                     self.final_state = None
                 try:
                     self.drive.close()
+                    if self.final_state == DriveState.ENABLED.value:
+                        self.final_state = DriveState.DISABLED.value   # close() disables it
                 finally:
                     self.closed = True
+                    self.closed_event.set()
         finally:
             self.estop.unregister(self)
 
@@ -111,7 +160,15 @@ def _state_name(state) -> str:
 
 
 class EStop:
-    def __init__(self):
+    def __init__(self, pending=None, store=None):
+        """``pending()``: True when a trigger is on its way but not handled yet (a run
+        process's e-stop pipe holds a message its listener has not read).  ``store``: where
+        the latch is kept (``bench.store.Store``); a latch found there is restored now."""
+        self._pending = pending
+        self._store = store
+        self._persist_lock = threading.Lock()
+        self._generation = 0           # bumped by reset: a persist of an older trigger is dropped
+        self._latched = threading.Event()
         self.active = False
         self.reason = ""
         self.triggered_at: float | None = None
@@ -121,12 +178,43 @@ class EStop:
         self._lock = threading.Lock()
         self._trigger_lock = threading.Lock()   # one trigger at a time reads the targets' replies
         self._listeners: list = []     # called with the reason after a trigger (runs cancel)
+        latch = store.get_latch() if store is not None else None
+        if latch is not None:          # latched before a crash or a restart: still latched
+            self.active = True
+            self._latched.set()
+            self.reason = latch["reason"]
+            self.triggered_at = latch["triggered_at"]
+            self.last_result = latch["drives"]
+
+    def _persist(self, drives: list | None, generation: int) -> None:
+        """Keep the latch (in a thread of its own: the run processes write to the same SQLite
+        file, and the e-stop's answer must not wait for its write lock).  A reset since the
+        trigger (``generation``) wins: a late write never re-latches."""
+        if self._store is None:
+            return
+        with self._persist_lock:
+            if generation != self._generation or not self.active:
+                return
+            try:
+                self._store.set_latch(self.reason, self.triggered_at, drives)
+            except Exception:      # the stop itself has happened; say loudly that it is not kept
+                log.exception("e-stop: could not persist the latch")
+
+    def _persist_later(self, drives: list | None) -> None:
+        threading.Thread(target=self._persist, args=(drives, self._generation), name="estop-persist",
+                         daemon=True).start()
+
+    def honour_pending(self, wait: float = 2.0) -> None:
+        """Before torque goes on: a trigger on its way is waited for (up to ``wait``)."""
+        if not self.active and self._pending is not None and self._pending():
+            self._latched.wait(wait)
 
     # --- drives ------------------------------------------------------------------------------
     def wrap(self, drives: dict, run_id: str) -> dict:
         """Guard and register freshly opened drives; refuse (closing them) while latched.
         Checked under the lock a trigger snapshots the drives with: a drive is either
         stopped by a trigger or refused after it, never missed."""
+        self.honour_pending()
         guarded = {jid: GuardedDrive(d, self, run_id) for jid, d in drives.items()}
         with self._lock:
             if not self.active:
@@ -172,6 +260,7 @@ class EStop:
         with self._trigger_lock:
             t0 = time.perf_counter()
             self.active = True            # first: no cycle may command torque from now on
+            self._latched.set()
             self.reason = reason
             self.triggered_at = time.time()
             with self._lock:
@@ -181,8 +270,18 @@ class EStop:
                     tg.estop_send(reason)
                 except Exception:         # a dead process: estop_collect reports it
                     log.warning("e-stop: could not reach %r", tg, exc_info=True)
-            threads = [threading.Thread(target=d.quick_stop, name=f"estop-{d.name}", daemon=True)
-                       for d in drives]
+            for d in drives:              # torque off everywhere first: frames, no waiting
+                d.torque_off()
+            # kept at once (beside the confirmations, not in their way): a crash from here on
+            # restarts latched
+            self._persist_later(None)
+            reports: list = [None] * len(drives)
+
+            def confirm(i: int, d: GuardedDrive) -> None:
+                reports[i] = d.confirm(CONFIRM_WAIT)
+
+            threads = [threading.Thread(target=confirm, args=(i, d), name=f"estop-{d.name}", daemon=True)
+                       for i, d in enumerate(drives)]
             for t in threads:
                 t.start()
             deadline = time.monotonic() + STOP_JOIN
@@ -191,13 +290,17 @@ class EStop:
             remote_deadline = time.monotonic() + REMOTE_WAIT
             remote = [r for tg in targets for r in tg.estop_collect(remote_deadline)]
             stop_latency = time.perf_counter() - t0
-            result = [self._report(d) for d in drives] + remote
+            local = [r if r is not None else {"joint": d.name, "run_id": d.run_id, "state": None,
+                                              "torque_off": None, "error": "no confirmation in time"}
+                     for d, r in zip(drives, reports)]
+            result = local + remote
         for cb in list(self._listeners):
             try:
                 cb(reason)
             except Exception:
                 log.exception("e-stop listener failed")
         self.last_result = result
+        self._persist_later(result)      # with the drives' reports
         return {"active": True, "reason": reason, "stop_latency_ms": 1e3 * stop_latency,
                 "drives": result}
 
@@ -222,6 +325,11 @@ class EStop:
                 "torque_off": state in {s.value for s in TORQUE_OFF_STATES}, "error": None}
 
     def reset(self) -> None:
-        self.active = False
+        with self._persist_lock:
+            self._generation += 1
+            if self._store is not None:
+                self._store.clear_latch()    # first: a crash during reset leaves it latched
+            self._latched.clear()
+            self.active = False
         self.reason = ""
         self.triggered_at = None

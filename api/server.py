@@ -28,9 +28,25 @@ def uvicorn_config(app, host: str, port: int, log_level: str = "warning") -> uvi
                           timeout_graceful_shutdown=3, lifespan="on")
 
 
-def serve_forever(app, host: str, port: int, log_level: str = "info") -> None:
+def listen(host: str, port: int) -> socket.socket:
+    """The listening socket, bound now: a busy port is the caller's one-line error (OSError),
+    not uvicorn's log and exit status 3."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+        sock.listen(2048)
+    except OSError:
+        sock.close()
+        raise
+    sock.set_inheritable(True)
+    return sock
+
+
+def serve_forever(app, host: str, port: int, log_level: str = "info", sock: socket.socket | None = None) -> None:
     sys.setswitchinterval(SWITCH_INTERVAL)
-    uvicorn.Server(uvicorn_config(app, host, port, log_level)).run()
+    uvicorn.Server(uvicorn_config(app, host, port, log_level)).run(sockets=[sock] if sock is not None else None)
 
 
 @contextmanager

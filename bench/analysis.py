@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import html
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import numpy as np
 
 from bench import plots
 from bench.diagnosis import Diagnosis, diagnose, drop_absorbers
+from bench.errors import BenchError, InputError
 from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
 from bench.perfect_model import replay
@@ -19,6 +21,7 @@ from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.residuals import breakdown
 from bench.unexplained import assess, noise_floor, structured
+from bench.validate import in_range, record_magnitudes
 
 
 @dataclass
@@ -143,11 +146,41 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
         from bench.effects import get
         for n in add:
             get(n)
-    ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
-    diag = None
-    if diagnose_effects or add:
-        diag = _diagnose(ident, rec, add)
+    record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
+    if cutoff is not None:
+        in_range(cutoff, "cutoff", 0.0, 0.5 / max(rec.dt, 1e-12), lo_open=True)
+    with fit_errors():
+        ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
+        diag = None
+        if diagnose_effects or add:
+            diag = _diagnose(ident, rec, add)
+        _check_finite(ident, diag)
     return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
+
+
+@contextmanager
+def fit_errors():
+    """A numerical failure inside the fit (a singular or non-finite problem that the
+    boundary checks let through) is one clear InputError, never a traceback or a 500."""
+    import numpy as np
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+            yield
+    except BenchError:
+        raise
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        raise InputError(f"the fit did not converge: {e.__class__.__name__}: {' '.join(str(e).split())[:200]}") from None
+
+
+def _check_finite(ident: Identification, diag: Diagnosis | None) -> None:
+    import math
+    fits = [ident.result] + ([diag.model.result] if diag is not None else [])
+    values = {k: v for r in fits for k, v in {**r.values, "rms": r.rms, "nrmse": r.nrmse}.items()}
+    if diag is not None:
+        values.update(baseline_rms=diag.baseline_rms, final_rms=diag.final_rms)
+    bad = sorted(k for k, v in values.items() if isinstance(v, (int, float)) and not math.isfinite(v))
+    if bad:
+        raise InputError(f"the fit did not converge: non-finite {', '.join(bad)}")
 
 
 def _diagnose(ident: Identification, rec: Record, add):

@@ -70,6 +70,7 @@ def simulate(
     try:
         from virtual_drives.conditions import make_record, recording_for
         from virtual_drives.recording import Logger, Recording
+        from bench.validate import finite_arrays
         from virtual_drives.presets import preset
         spec = preset(joint)
         if seed < 0:
@@ -83,9 +84,10 @@ def simulate(
                 if k not in spec.friction.as_dict(with_delta=True):
                     raise BenchError(f"--param {p!r}: unknown parameter {k!r}; known: Fc, Fs, alpha, sigma0, sigma1, sigma2, delta")
                 try:
-                    changes[k] = float(v)
+                    value = float(v)
                 except ValueError:
                     raise BenchError(f"--param {p!r}: value must be a number") from None
+                changes[k] = friction_parameter(k, value)
             spec = spec.with_(friction=spec.friction.with_(**changes))
         rec = recording_for(spec, condition, seed) if condition else Recording()
         given = {k: v for k, v in dict(
@@ -118,6 +120,7 @@ def simulate(
             rec = rec.with_(gravity_left=_gravity_pair(gravity_left, spec))
         record, truth = make_record(spec, rec, seed=seed, duration=duration, effects=effect,
                                     declared_inertia=declared_inertia)
+        finite_arrays(f"joint {spec.name}", t=record.t, tau=record.tau, q=record.q, qd=record.qd)
         record.meta["condition"] = condition or "custom"
         record.to_csv(output)
     except BenchError as e:
@@ -233,12 +236,37 @@ def _register_plugins() -> None:
 _register_plugins()
 
 
-def main() -> None:
+def run(argv: list[str] | None = None) -> int:
+    """The CLI on ``argv`` (default: the process's); returns the exit status.  Usage errors
+    (unknown option, a value that is not a number, a missing argument) are one line, status
+    2, like every other user error (click would print a framed usage box)."""
+    try:       # typer >= 0.26 carries its own copy of click
+        from typer._click import exceptions as cx
+    except ImportError:
+        from click import exceptions as cx
     try:
-        app()
+        rv = app(args=argv, prog_name="bench", standalone_mode=False)
+    except cx.NoArgsIsHelpError as e:
+        err.print(e.ctx.get_help() if e.ctx is not None else str(e), markup=False, highlight=False)
+        return 2
+    except cx.UsageError as e:
+        where = f"{e.ctx.command_path}: " if e.ctx is not None and e.ctx.command_path else ""
+        err.print(f"error: {where}{' '.join(e.format_message().split())}", markup=False, highlight=False,
+                  soft_wrap=True)
+        return 2
+    except cx.Exit as e:
+        return e.exit_code
+    except cx.Abort:
+        err.print("aborted", markup=False, highlight=False)
+        return 130
     except BenchError as e:  # a plugin command that let one through
-        err.print(f"error: {e}", markup=False, highlight=False)
-        sys.exit(2)
+        err.print(f"error: {' '.join(str(e).split())}", markup=False, highlight=False, soft_wrap=True)
+        return 2
+    return rv if isinstance(rv, int) else 0
+
+
+def main() -> None:
+    sys.exit(run())
 
 
 if __name__ == "__main__":

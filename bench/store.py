@@ -22,6 +22,7 @@ import uuid
 from pathlib import Path
 
 from bench.errors import InputError
+from bench.private import private_dir, private_file
 
 STATES = ("queued", "running", "succeeded", "failed", "cancelled", "interrupted")
 FINAL = ("succeeded", "failed", "cancelled", "interrupted")
@@ -40,6 +41,8 @@ CREATE TABLE IF NOT EXISTS models (
   params TEXT NOT NULL, report TEXT);
 CREATE TABLE IF NOT EXISTS compensation (
   joint_id TEXT PRIMARY KEY, enabled INTEGER NOT NULL, model_id TEXT, updated REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS estop (
+  id INTEGER PRIMARY KEY CHECK (id = 1), reason TEXT NOT NULL, triggered_at REAL, drives TEXT);
 """
 
 
@@ -74,9 +77,11 @@ def pid_alive(pid: int | None) -> bool:
 
 class Store:
     def __init__(self, data_dir: str | Path):
-        self.dir = Path(data_dir)
-        self.dir.mkdir(parents=True, exist_ok=True)
+        self.dir = private_dir(data_dir)       # 0700 and 0600, whatever the umask
         self.path = self.dir / "runs.sqlite"
+        for suffix in ("", "-wal", "-shm"):    # SQLite gives its WAL and SHM the db's mode
+            if suffix == "" or Path(f"{self.path}{suffix}").exists():
+                private_file(f"{self.path}{suffix}")
         self._local = threading.local()
         self._version: str | None = None
         self._conn().executescript(_SCHEMA)
@@ -162,14 +167,42 @@ class Store:
         sql += " ORDER BY created DESC, rowid DESC LIMIT ?"
         return [_run_dict(r) for r in self._conn().execute(sql, (*args, limit))]
 
+    def set_progress(self, run_id: str, progress: float) -> None:
+        """The live progress of a running run, kept so that a crash does not reset it."""
+        with self._tx() as c:
+            c.execute("UPDATE runs SET result=json_set(COALESCE(result, '{}'), '$.progress', ?)"
+                      " WHERE id=? AND state='running'", (float(progress), run_id))
+
     def recover(self) -> list[str]:
-        """Mark runs left 'running' by a dead process on this host as 'interrupted'."""
+        """Mark runs left 'running' by a dead process on this host as 'interrupted': ended
+        when they were last heard of (their newest document), their progress as recorded."""
         host = socket.gethostname()
-        rows = self._conn().execute("SELECT id, owner_pid, owner_host FROM runs WHERE state='running'").fetchall()
-        dead = [r["id"] for r in rows if r["owner_host"] == host and not pid_alive(r["owner_pid"])]
-        for run_id in dead:
-            self.finish_run(run_id, "interrupted", error="owner process died mid-run")
-        return dead
+        rows = self._conn().execute("SELECT id, owner_pid, owner_host, started, created FROM runs"
+                                    " WHERE state='running'").fetchall()
+        dead = [r for r in rows if r["owner_host"] == host and not pid_alive(r["owner_pid"])]
+        for r in dead:
+            last = self._conn().execute("SELECT MAX(time) FROM events WHERE run_id=?", (r["id"],)).fetchone()[0]
+            ended = max(x for x in (last, r["started"], r["created"]) if x is not None)
+            with self._tx() as c:
+                c.execute("UPDATE runs SET state='interrupted', ended=?, error=? WHERE id=? AND state='running'",
+                          (ended, "owner process died mid-run", r["id"]))
+        return [r["id"] for r in dead]
+
+    # --- the e-stop latch (api.safety): state, not memory --------------------------------------
+    def set_latch(self, reason: str, triggered_at: float | None, drives: list | None = None) -> None:
+        with self._tx() as c:
+            c.execute("INSERT OR REPLACE INTO estop (id, reason, triggered_at, drives) VALUES (1,?,?,?)",
+                      (reason, triggered_at, json.dumps(drives or [], default=_jsonable)))
+
+    def clear_latch(self) -> None:
+        with self._tx() as c:
+            c.execute("DELETE FROM estop")
+
+    def get_latch(self) -> dict | None:
+        r = self._conn().execute("SELECT reason, triggered_at, drives FROM estop WHERE id=1").fetchone()
+        if r is None:
+            return None
+        return {"reason": r["reason"], "triggered_at": r["triggered_at"], "drives": json.loads(r["drives"] or "[]")}
 
     # --- documents -------------------------------------------------------------------------
     def emit(self, doc: dict) -> None:

@@ -5,6 +5,7 @@ Not a timed test: prints a markdown table.  Loopback only; bounded request count
     python benchmarks/bench_api.py [--pattern poll|page] [--clients 50] [--poll 0.2] [--pages 20]
                                    [--seconds 5] [--rounds 6] [--estops 5]
                                    [--client-cpus server|any] [--no-pin] [--rt-priority N]
+    python benchmarks/bench_api.py --estop-table 20      # only: e-stop per run type, both clocks
 
 1. ``bench serve`` in a child process with macro4 switched to the realtime clock, as in
    production: every run's control loop runs in its own process (``api.run_process``), its
@@ -58,15 +59,16 @@ from api import cpus
 from api.server import free_port
 
 
-def start_server(tmp: Path, port: int, pin: bool = True, rt_priority: int = 0) -> subprocess.Popen:
+def start_server(tmp: Path, port: int, pin: bool = True, rt_priority: int = 0,
+                 clock: str = "realtime") -> subprocess.Popen:
     text = resources.files("procedures.benches").joinpath("macro4.toml").read_text()
-    bench = tmp / "macro4-realtime.toml"
-    bench.write_text(re.sub(r'^clock = "lockstep"', 'clock = "realtime"', text, flags=re.M))
+    bench = tmp / f"macro4-{clock}.toml"
+    bench.write_text(re.sub(r'^clock = "lockstep"', f'clock = "{clock}"', text, flags=re.M))
     env = {**os.environ, "BENCH_API_KEY": ""}
     proc = subprocess.Popen([sys.executable, "-c", "from bench.cli import main; main()", "serve", "--bench", str(bench),
                              "--data", str(tmp / "data"), "--port", str(port), "--log-level", "warning",
                              "--pin-cpus" if pin else "--no-pin-cpus", "--rt-priority", str(rt_priority)],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, env=env)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         try:
@@ -75,7 +77,7 @@ def start_server(tmp: Path, port: int, pin: bool = True, rt_priority: int = 0) -
         except httpx.HTTPError:
             time.sleep(0.2)
     proc.kill()
-    raise SystemExit("server did not start: " + proc.stdout.read().decode()[-2000:])
+    raise SystemExit("server did not start")
 
 
 def uptime() -> str:
@@ -210,6 +212,57 @@ def wait_state(c: httpx.Client, run_id: str, states, timeout: float = 60) -> dic
     raise SystemExit(f"run {run_id} not in {states} after {timeout} s")
 
 
+RUN_TYPES = {     # e-stop table: each run type on a CANopen and a serial joint (a calibration: all four)
+    "identify": {"procedure": "identify", "joints": ["j1", "j3"], "options": {"plots": False}},
+    "tracking": {"procedure": "tracking", "joints": ["j1", "j3"],
+                 "options": {"compensation": "off", "plots": False, "tracking_cycles": 2.0}},
+    "calibrate": {"procedure": "calibrate", "options": {"plots": False, "search_max_trials": 2,
+                                                        "search_cycles": 1.0, "tracking_cycles": 0.5}},
+}
+
+
+def estop_table(clock: str, n: int, pin: bool) -> list[str]:
+    """``n`` e-stops per run type on macro4 with the ``clock``, each at a drawn moment (0-0.6 s)
+    after the run's drives are open: the client's round trip, the server's latch -> every
+    drive confirmed, and whether every drive reported its torque off."""
+    import random
+    rng = random.Random(7)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmpdir:
+        tmp, port = Path(tmpdir), free_port()
+        proc = start_server(tmp, port, pin=pin, clock=clock)
+        try:
+            key = (tmp / "data" / "admin.key").read_text().strip()
+            c = httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {key}"},
+                             timeout=30)
+            for kind, body in RUN_TYPES.items():
+                rtt, server, confirmed, drives = [], [], 0, 0
+                for _ in range(n):
+                    rid = c.post("/runs", json=body).json()["id"]
+                    end = time.monotonic() + 60
+                    while time.monotonic() < end and not c.get("/joints/j1").json()["drive"]["open"]:
+                        time.sleep(0.02)
+                    time.sleep(rng.uniform(0.0, 0.6))
+                    t0 = time.perf_counter()
+                    stop = c.post("/estop").json()
+                    rtt.append(1e3 * (time.perf_counter() - t0))
+                    server.append(stop["stop_latency_ms"])
+                    drives += len(stop["drives"])
+                    confirmed += sum(d["torque_off"] is True for d in stop["drives"])
+                    wait_state(c, rid, ("failed", "cancelled", "succeeded", "interrupted"), 120)
+                    while c.post("/estop/reset").status_code == 409:
+                        time.sleep(0.1)
+                rows.append(f"| {clock} | {kind} | {n} | {statistics.median(rtt):.1f} / {max(rtt):.1f} | "
+                            f"{statistics.median(server):.1f} / {max(server):.1f} | {confirmed} / {drives} |")
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--pattern", choices=("poll", "page"), default="poll",
@@ -227,8 +280,19 @@ def main() -> None:
     ap.add_argument("--no-pin", action="store_true", help="bench serve --no-pin-cpus")
     ap.add_argument("--rt-priority", type=int, default=0,
                     help="bench serve --rt-priority: SCHED_FIFO for the run control processes (0: normal)")
+    ap.add_argument("--estop-table", type=int, default=0, metavar="N",
+                    help="only the e-stop table: N stops per run type on the lock-step and the realtime bench")
     args = ap.parse_args()
     load0, uptime0 = os.getloadavg()[0], uptime()
+    if args.estop_table:
+        rows = [r for clock in ("lockstep", "realtime") for r in estop_table(clock, args.estop_table, not args.no_pin)]
+        print(f"## E-stop per run type (macro4; {args.estop_table} stops each, 0-0.6 s after the drives opened)\n")
+        print(f"uptime at start: {uptime0}\nuptime at end:   {uptime()}\n")
+        print("| clock | run type | stops | round trip (client) median / max [ms] | latch -> drives confirmed "
+              "(server) median / max [ms] | drives torque_off: true |")
+        print("|---|---|---|---|---|---|")
+        print("\n".join(rows))
+        return
     placement = None if args.no_pin else cpus.split()
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)

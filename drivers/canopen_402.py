@@ -7,6 +7,12 @@ dies), PDO mapping, mode of operation (cyclic synchronous torque 10, else profil
 confirmed by reading 0x6061 because python-canopen's op_mode setter only logs a failure),
 then NMT operational.
 
+One owner per SDO channel: python-canopen's SDO client matches replies to requests through a
+single queue per node, so two threads transferring at once read each other's answers (or
+time out).  Every SDO transfer here holds ``sdo_lock``; the e-stop never uses SDO at all:
+``torque_off`` is one RPDO frame (no lock to wait for), and ``confirm_off`` reads the
+statusword from the TPDO answering a SYNC of its own.
+
 Cyclic data:  RPDO1 = controlword 0x6040 + target torque 0x6071 (asynchronous, so a quick
 stop acts at once; CST latches the target at the SYNC anyway), TPDO1 = statusword 0x6041 +
 position 0x6064 + torque 0x6077, TPDO2 = velocity 0x606C (+ the drive time 0x2001 when the
@@ -68,6 +74,10 @@ class Cia402Drive:
         self.bus = SharedBus.acquire(j)
         self.net = self.bus.network
         self.cond = threading.Condition()
+        self.sdo_lock = threading.RLock()   # the node's SDO channel has one user at a time
+        self.send_lock = threading.Lock()   # RPDO: the halted check and the frame, together
+        self.halted = False                 # e-stop: never enabled again by this object
+        self.stop_acked: DriveState | None = None   # the last stop the drive acknowledged
         self.latched: DriveError | None = None
         self.want = DriveState.DISABLED
         self.cw = CW_SHUTDOWN
@@ -94,7 +104,8 @@ class Cia402Drive:
     # --- configuration ---------------------------------------------------------------------
     def _sdo(self, what: str, fn):
         try:
-            return fn()
+            with self.sdo_lock:
+                return fn()
         except SdoCommunicationError as exc:
             raise CommunicationTimeout(f"{self.name}: CANopen node {self.node_id} on "
                                        f"{self.j['interface']}:{self.j['channel']} did not "
@@ -203,7 +214,10 @@ class Cia402Drive:
 
     # --- TorqueDrive -------------------------------------------------------------------------
     def _send(self, cw: int, raw_torque: int) -> None:
-        self.net.send_message(self.rpdo_id, _RPDO1.pack(cw, raw_torque))
+        with self.send_lock:      # after torque_off no frame can put torque back on
+            if self.halted:
+                cw, raw_torque = (CW_QUICK_STOP if cw == CW_ENABLE else cw), 0
+            self.net.send_message(self.rpdo_id, _RPDO1.pack(cw, raw_torque))
 
     def _alive(self) -> None:
         age = time.monotonic() - self.last_heartbeat
@@ -268,7 +282,12 @@ class Cia402Drive:
         g.limits(s)
         return s
 
+    def _halt_check(self) -> None:
+        if self.halted:
+            raise DriveError(f"{self.name}: emergency stop: torque off; not enabling")
+
     def _await_state(self, want: str, cw: int) -> None:
+        self._halt_check()        # an e-stop during enable() ends it between two transfers
         self._write(0x6040, None, cw)
         deadline = time.monotonic() + max(10 * self.timeout, 0.5)
         while True:
@@ -300,6 +319,9 @@ class Cia402Drive:
         self.cw, self.want, self.latched = CW_ENABLE, DriveState.ENABLED, None
         self._send(CW_ENABLE, 0)
         self._await_state("OPERATION ENABLED", CW_ENABLE)
+        if self.halted:           # the stop raced the last transfer: stop again, refuse
+            self.torque_off()
+            self._halt_check()
 
     def _stop_with(self, cw: int, want: DriveState) -> None:
         # the RPDO acts at once; the SDO write confirms the drive has it.  Never raises.
@@ -309,19 +331,64 @@ class Cia402Drive:
         except Exception:
             pass
         sdo = self.node.sdo
-        saved, sdo.RESPONSE_TIMEOUT = sdo.RESPONSE_TIMEOUT, min(sdo.RESPONSE_TIMEOUT, 0.1)
-        try:
-            sdo[0x6040].raw = cw
-        except Exception:
-            pass
-        finally:
-            sdo.RESPONSE_TIMEOUT = saved
+        with self.sdo_lock:
+            saved, sdo.RESPONSE_TIMEOUT = sdo.RESPONSE_TIMEOUT, min(sdo.RESPONSE_TIMEOUT, 0.1)
+            try:
+                sdo[0x6040].raw = cw
+                self.stop_acked = want    # the drive acknowledged the stop (SDO reply)
+            except Exception:
+                pass
+            finally:
+                sdo.RESPONSE_TIMEOUT = saved
 
     def quick_stop(self) -> None:
         self._stop_with(CW_QUICK_STOP, DriveState.QUICK_STOP)
 
     def disable(self) -> None:
         self._stop_with(CW_DISABLE_VOLTAGE, DriveState.DISABLED)
+
+    # --- e-stop: from any thread, whatever the control thread is doing ---------------------------
+    def torque_off(self) -> None:
+        """Quick stop now: one RPDO frame, no SDO, no lock a transfer could hold.  From then
+        on this object never commands torque or enables again.  Never raises."""
+        self.halted = True
+        self.cw, self.want = CW_QUICK_STOP, DriveState.QUICK_STOP
+        try:
+            self._send(CW_QUICK_STOP, 0)
+        except Exception:
+            pass
+
+    def confirm_off(self, timeout: float) -> DriveState | None:
+        """The drive's own state after ``torque_off``, from the statusword of the TPDO that
+        answers a SYNC sent here (never an SDO transfer: the control thread may own the
+        channel, and a dead drive would cost the SDO timeout); a drive still enabled (an
+        enable in flight crossed the stop) is stopped again.  A drive its run has just closed
+        answers with the stop it acknowledged on closing (close() disables it by SDO).  None:
+        no answer in time."""
+        deadline = time.monotonic() + timeout
+        while True:
+            bus = self.bus
+            if bus is None or bus.silent:     # closed (or closing) by its run meanwhile
+                return self.stop_acked
+            try:
+                target = bus.sync_now()
+            except Exception:
+                return self.stop_acked
+            with self.cond:
+                while self._latest is None or self._latest[0] < target:
+                    left = deadline - time.monotonic()
+                    if self.bus is None:
+                        return self.stop_acked
+                    if left <= 0:
+                        return None
+                    self.cond.wait(left)
+                sw = self._latest[2]
+            st = state_of(sw)
+            if st != "OPERATION ENABLED":
+                return _DRIVE_STATE.get(st, DriveState.DISABLED)
+            self.torque_off()
+            if time.monotonic() > deadline:
+                return DriveState.ENABLED
 
     def status(self) -> DriveStatus:
         self._alive()
@@ -344,7 +411,8 @@ class Cia402Drive:
         if getattr(self, "node", None) is not None and not self.bus.silent:
             self.disable()
             try:          # disarm the drive's consumer: an orderly exit is not a dead host
-                self.node.sdo[0x1016][1].raw = 0
+                with self.sdo_lock:
+                    self.node.sdo[0x1016][1].raw = 0
             except Exception:
                 pass
         self._teardown()
@@ -365,4 +433,6 @@ class Cia402Drive:
             except Exception:
                 pass
         bus, self.bus = self.bus, None
+        with self.cond:           # a confirm_off waiting for a TPDO gives up now
+            self.cond.notify_all()
         bus.release()

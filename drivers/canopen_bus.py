@@ -89,6 +89,16 @@ class SharedBus:
                 self.network.send_message(SYNC_ID, b"")
             return self.sync_seq
 
+    def sync_now(self) -> int:
+        """One extra SYNC now, outside the tick grid (the e-stop's confirmation: every drive
+        on the bus answers with its statusword; a lock-step drive advances one period,
+        torque off).  Returns its number."""
+        with self.sync_lock:
+            self.sync_seq += 1
+            self.last_sync = time.perf_counter()
+            self.network.send_message(SYNC_ID, b"")
+            return self.sync_seq
+
     def release(self) -> None:
         with _BUSES_LOCK:
             self.users -= 1

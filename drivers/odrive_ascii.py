@@ -12,10 +12,16 @@ resynchronises (drains the line until it is quiet) and reads again once ("f" and
 re-sending "c" would advance a lock-step drive twice) before failing with
 ``ProtocolViolation``.
 ``f`` has no torque field: ``Sample.torque`` is the torque commanded while enabled.
+
+E-stop from another thread: ``torque_off`` writes ``v <axis> 0`` (no reply, so it takes no
+reply slot) under ``write_lock``, held only for a write; from then on every ``c`` goes out
+with torque 0 and ``enable`` refuses.  ``confirm_off`` reads the axis state under
+``exchange_lock``, which a cycle holds for one exchange only.
 """
 from __future__ import annotations
 
 import select
+import threading
 import time
 
 import serial
@@ -52,6 +58,15 @@ def _shape(fields: list[str], shape: str) -> list | None:
     return None
 
 
+def _halted_line(line: str, axis: int) -> str:
+    """A line as it may go out after an e-stop: torque commands at 0, no closed loop."""
+    if line.startswith("c "):
+        return f"c {axis} 0.0"
+    if line.startswith((f"w axis{axis}.requested_state {AXIS_CLOSED_LOOP}", "u ")):
+        return f"v {axis} 0 0"
+    return line
+
+
 @register("serial")
 class OdriveAsciiDrive:
     def __init__(self, j: dict):
@@ -72,6 +87,10 @@ class OdriveAsciiDrive:
         self.consumed = 0
         self.t0 = time.monotonic()
         self.buf = bytearray()
+        self.write_lock = threading.Lock()       # whole lines: a stop never splits a command
+        self.exchange_lock = threading.RLock()   # request + replies: one reader at a time
+        self.halted = False                      # e-stop: torque 0 and never enabled again
+        self.stop_acked: DriveState | None = None  # the last stop the drive acknowledged
         try:
             self.ser = serial.Serial(j["port"], baudrate=j["baudrate"], timeout=0,
                                      write_timeout=max(self.timeout, 0.5))
@@ -93,7 +112,10 @@ class OdriveAsciiDrive:
 
     def _send(self, lines: list[str]) -> None:
         try:
-            self.ser.write(self._encode(lines))
+            with self.write_lock:
+                if self.halted:       # after torque_off no line can put torque back on
+                    lines = [_halted_line(ln, self.axis) for ln in lines]
+                self.ser.write(self._encode(lines))
         except (serial.SerialException, OSError) as exc:
             raise CommunicationTimeout(f"{self.name}: write to {self.j['port']} failed: {exc}") \
                 from exc
@@ -129,6 +151,10 @@ class OdriveAsciiDrive:
         return text.split()
 
     def _exchange(self, lines: list[str], shapes: list[str]) -> list[list]:
+        with self.exchange_lock:
+            return self._exchange_locked(lines, shapes)
+
+    def _exchange_locked(self, lines: list[str], shapes: list[str]) -> list[list]:
         self._send(lines)
         deadline = time.monotonic() + self.timeout
         got, bad = [], 0
@@ -152,6 +178,10 @@ class OdriveAsciiDrive:
 
     def _resync(self, quiet: float = 0.005) -> None:
         """Drop everything the drive sends until it has been quiet for ``quiet`` s."""
+        with self.exchange_lock:
+            self._drain(quiet)
+
+    def _drain(self, quiet: float) -> None:
         self.buf.clear()
         while select.select([self.fd], [], [], quiet)[0]:
             self.ser.read(self.ser.in_waiting or 1)
@@ -216,8 +246,19 @@ class OdriveAsciiDrive:
         self.guard.limits(s)
         return s
 
+    def _halt_check(self) -> None:
+        if self.halted:
+            raise DriveError(f"{self.name}: emergency stop: torque off; not enabling")
+
     def enable(self) -> None:
+        self._enable()            # the lock per exchange: an e-stop confirms in between
+        if self.halted:            # the stop raced the last write: stop again, refuse
+            self.torque_off()
+            self._halt_check()
+
+    def _enable(self) -> None:
         a = f"axis{self.axis}"
+        self._halt_check()
         self._resync()
         if self._r(f"{a}.error", "i"):
             self._send(["sc"])
@@ -228,14 +269,17 @@ class OdriveAsciiDrive:
         self._w(f"{a}.controller.input_torque", 0)
         self._send([f"u {self.axis}"])
         self._w(f"{a}.config.enable_watchdog", 1)
+        self._halt_check()
         self._w(f"{a}.requested_state", AXIS_CLOSED_LOOP)
         deadline = time.monotonic() + max(10 * self.timeout, 0.5)
         while self._r(f"{a}.current_state", "i") != AXIS_CLOSED_LOOP:
+            self._halt_check()
             if time.monotonic() > deadline:
                 raise ProtocolViolation(f"{self.name}: axis {self.axis} did not enter closed "
                                         f"loop control")
             time.sleep(0.002)
-        self.last, self.latched, self.want = None, None, DriveState.ENABLED
+        self.last, self.latched = None, None
+        self.want = DriveState.QUICK_STOP if self.halted else DriveState.ENABLED
         self.guard.reset()
 
     def _stop_with(self, lines: list[str], want: DriveState) -> None:
@@ -245,6 +289,7 @@ class OdriveAsciiDrive:
         saved, self.timeout = self.timeout, min(self.timeout, 0.1)
         try:
             self._exchange(lines + [f"r axis{self.axis}.current_state"], ["i"])
+            self.stop_acked = want     # the drive answered after the stop lines: it has them
         except Exception:
             pass
         finally:
@@ -257,6 +302,43 @@ class OdriveAsciiDrive:
     def disable(self) -> None:
         self._stop_with([f"w axis{self.axis}.requested_state {AXIS_IDLE}",
                          f"w axis{self.axis}.config.enable_watchdog 0"], DriveState.DISABLED)
+
+    # --- e-stop: from any thread, whatever the control thread is doing ---------------------------
+    def torque_off(self) -> None:
+        """Brake now: ``v <axis> 0`` (velocity 0, no reply), written between two of the
+        control thread's writes, never waiting for its replies.  Never raises."""
+        self.halted = True
+        self.want = DriveState.QUICK_STOP
+        got = self.write_lock.acquire(timeout=0.05)
+        try:
+            self.ser.write(self._encode([f"v {self.axis} 0 0"]))
+        except Exception:
+            pass
+        finally:
+            if got:
+                self.write_lock.release()
+
+    def confirm_off(self, timeout: float) -> DriveState | None:
+        """The axis state after ``torque_off`` (read between two exchanges of the control
+        thread); an axis still in closed loop reports quick stop, as ``status`` does.
+        None: no answer in time."""
+        deadline = time.monotonic() + timeout
+        while True:
+            if not self.ser.is_open:       # closed by its run meanwhile: the stop it acknowledged
+                return self.stop_acked
+            if not self.exchange_lock.acquire(timeout=max(0.0, deadline - time.monotonic())):
+                return None
+            saved, self.timeout = self.timeout, min(self.timeout, max(deadline - time.monotonic(), 0.01))
+            try:
+                state = self.status().state
+            except Exception:
+                return None if self.ser.is_open else self.stop_acked
+            finally:
+                self.timeout = saved
+                self.exchange_lock.release()
+            if state != DriveState.ENABLED or time.monotonic() > deadline:
+                return state
+            self.torque_off()      # an enable in flight crossed the stop: stop again
 
     def status(self) -> DriveStatus:
         a = f"axis{self.axis}"

@@ -61,3 +61,53 @@ def sse_events(client: httpx.Client, path: str, stop=lambda ev: ev["event"] == "
                     return events
                 cur = {}
     return events
+
+
+class ServeProcess:
+    """``bench serve`` in its own process (a new session, so a test can kill it alone) on a
+    free loopback port; ``stop()`` ends it.  For what an in-thread server cannot show:
+    kill -9 and restart, the server's own memory, its children."""
+
+    def __init__(self, bench: str, data, extra: tuple = (), env: dict | None = None, start_timeout: float = 60.0):
+        import os
+        import subprocess
+        import sys
+
+        from api.server import free_port
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.data = data
+        self.log = open(f"{data}.serve.log", "ab")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "bench.cli", "serve", "--bench", bench, "--data", str(data), "--port",
+             str(self.port), "--log-level", "warning", "--no-pin-cpus", *extra],
+            stdout=self.log, stderr=subprocess.STDOUT, env={**os.environ, "BENCH_API_KEY": "", **(env or {})},
+            start_new_session=True)
+        end = time.monotonic() + start_timeout
+        while True:
+            try:
+                if httpx.get(f"{self.url}/health", timeout=1).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            if self.proc.poll() is not None or time.monotonic() > end:
+                self.stop()
+                raise AssertionError(f"bench serve did not start: {open(self.log.name).read()[-2000:]}")
+            time.sleep(0.1)
+        self.admin = (data / "admin.key").read_text().strip() if (data / "admin.key").exists() else None
+
+    def client(self, key: str | None = None, timeout: float = 15.0) -> httpx.Client:
+        key = key or self.admin
+        return httpx.Client(base_url=self.url, headers={"Authorization": f"Bearer {key}"} if key else {},
+                            timeout=timeout)
+
+    def stop(self, timeout: float = 30.0) -> None:
+        import signal
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout)
+            except Exception:
+                self.proc.kill()
+                self.proc.wait(5)
+        self.log.close()
