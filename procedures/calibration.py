@@ -204,12 +204,13 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
 
 
 def check_virtual(cfg: BenchConfig) -> None:
-    """The virtual transport emulates each drive from its joint's ``preset`` (the physical
-    truth); a bench without one (real hardware) cannot be emulated."""
+    """The virtual transport emulates each drive from its joint's ``preset`` or ``physics``
+    table (the physical truth); a bench without either (real hardware) cannot be emulated."""
     for j in cfg.joints:
-        if j["transport"] != "simulated" and not j.get("preset"):
+        if j["transport"] != "simulated" and not j.get("preset") and not j.get("physics"):
             raise InputError(f"joint {j['id']!r} has no preset: the virtual transport emulates each "
-                             f"drive from its joint's preset (give preset = \"<name>\")")
+                             f"drive from its joint's preset (give preset = \"<name>\") or its "
+                             f"physics ([joints.physics], see docs/procedures.md)")
 
 
 def _close(rig: Rig) -> None:

@@ -61,6 +61,8 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
     if joints is not None and not ids:
         raise InputError("--joints is empty")
     cfg = load_bench(bench)          # validate before touching the store
+    for w in cfg.warnings:
+        typer.echo(f"warning: {w}", err=True)
     chosen = cfg.select(ids)
     if transport == "virtual":
         from procedures.calibration import check_virtual
