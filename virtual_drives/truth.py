@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench import terms
 from bench.errors import InputError
 from bench.lugre import PARAMETER_NAMES, LuGreParams
 from bench.validate import config_number
@@ -133,20 +132,29 @@ def _injected(effects: list[str], spec: JointSpec):
     return parse_injections(effects, spec)
 
 
-def joint_truth(joint: dict) -> Truth:
-    """What the emulated drive of a (completed) joint dict is: the preset with the joint's
-    gravity, or the joint's own ``physics``; plus a raw ``extra`` terms vector if given."""
+def joint_spec(joint: dict) -> JointSpec:
+    """The emulated joint's base truth: its preset with the joint's gravity, or its own
+    ``physics`` table (hidden effects not applied: ``joint_effects``)."""
     physics = joint.get("physics")
-    lag = 0.0
-    if physics is not None:
-        p, _ = check_physics(physics, joint, f"joint {joint.get('id')!r}")
-        spec = _spec(p, joint, LuGreParams(**p["friction"]))
-        ev, _, delta, lag = _injected(p["effects"], spec)
-        if delta is not None:
-            spec = spec.with_(friction=spec.friction.with_(delta=delta))
-    else:
-        spec = preset(joint["preset"]).with_(gravity=tuple(joint["gravity"]))
-        ev = terms.empty()
+    if physics is None:
+        return preset(joint["preset"]).with_(gravity=tuple(joint["gravity"]))
+    p, _ = check_physics(physics, joint, f"joint {joint.get('id')!r}")
+    return _spec(p, joint, LuGreParams(**p["friction"]))
+
+
+def joint_effects(joint: dict) -> list[str]:
+    """Injection texts hidden in the emulated joint: the joint's ``effects`` and its physics
+    table's."""
+    return list(joint.get("effects") or []) + list((joint.get("physics") or {}).get("effects", []))
+
+
+def joint_truth(joint: dict) -> Truth:
+    """What the emulated drive of a (completed) joint dict is: ``joint_spec`` with its effects
+    (``joint_effects``) and any raw ``extra`` terms vector added."""
+    spec = joint_spec(joint)
+    ev, _, delta, lag = _injected(joint_effects(joint), spec)
+    if delta is not None:
+        spec = spec.with_(friction=spec.friction.with_(delta=delta))
     if joint.get("extra") is not None:
         ev = ev + np.asarray(joint["extra"], float)
     return Truth(spec=spec, extra=ev, torque_lag=float(lag))
