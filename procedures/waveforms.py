@@ -24,10 +24,10 @@ import numpy as np
 WAVEFORMS = ("sine", "two_level")
 
 
-def check(kind: str, ratio: float) -> None:
+def check(kind: str, ratio: float, what: str = "waveform") -> None:
     from bench.errors import InputError
     if kind not in WAVEFORMS:
-        raise InputError(f"waveform must be one of {', '.join(WAVEFORMS)}, got {kind!r}")
+        raise InputError(f"{what} must be one of {', '.join(WAVEFORMS)}, got {kind!r}")
     if not 0.2 <= ratio <= 1.0:
         raise InputError(f"waveform ratio must be in [0.2, 1], got {ratio!r}")
 
