@@ -256,7 +256,7 @@ def _stage_search(store, cfg, rig, plan, step, emit, st, run_id):
         res.record.to_csv(d / "record.csv")
         summary["record"] = str(d / "record.csv")
     _end_child(store, rig, child, cemit, "succeeded" if res.ok else "failed", summary, None if res.ok else res.reason)
-    step["result"] = {k: summary[k] for k in ("amplitude", "frequency", "reason")} | {
+    step["result"] = {k: summary[k] for k in ("amplitude", "frequency", "waveform", "reason")} | {
         "trials": len(res.trials), "record": summary.get("record")}
     if not res.ok:
         raise _StageFailed(res.reason)

@@ -52,7 +52,7 @@ class SearchSettings:
     levels: tuple = (1.0,)            # extra velocity levels relative to the accepted one (Fig. 8)
     # procedures.waveforms: "sine", or "two_level" (every second cycle at level_ratio of the
     # amplitude) to break the cycle lock; the amplitude and the workspace check are the peak's
-    waveform: str = "sine"
+    waveform: str = "two_level"
     level_ratio: float = 0.6
 
 
@@ -76,7 +76,7 @@ class ExcitationResult:
     record: Record | None = None
     trials: list[Trial] = field(default_factory=list)
     levels: list[dict] = field(default_factory=list)   # {level, amplitude, frequency, record, metrics}
-    waveform: str = "sine"
+    waveform: str = "two_level"
 
     def summary(self) -> dict:
         return {"joint": self.joint, "ok": self.ok, "reason": self.reason, "amplitude": self.amplitude,
