@@ -89,3 +89,23 @@ def test_two_level_excitation_breaks_the_cycle_lock_inside_the_workspace(jid, se
     truth = cfg.joint(jid)["physics"]["friction"]
     for k in ("Fc", "Fs", "sigma2"):
         assert abs(doc["parameters"][k] / truth[k] - 1) < 0.05, (k, doc["parameters"][k])
+
+
+def test_physics_effects_are_in_the_emulated_drive():
+    """The drive simulates its physics table's hidden effects: a torque offset larger than
+    breakaway (a joint pulled by a spring or a cable) moves the wrist under zero command."""
+    from drivers.joint_config import complete_joint
+    from virtual_drives.drive_core import DriveCore
+    cfg = load_bench(MADE_UP)
+    moved = {}
+    for offset in (0.0, 0.1):          # N m; Fs = 0.065
+        j = dict(cfg.joint("wrist"), clock="lockstep", control_period=0.001)
+        j["physics"] = dict(j["physics"], effects=[f"torque_offset:value={offset}"] if offset else [])
+        core = DriveCore(complete_joint(j), clock="lockstep", seed=5031)
+        assert core.enable()
+        q0 = core.vj.state.q
+        core.set_command(0.0)
+        core.step(200)
+        moved[offset] = core.vj.state.q - q0
+    assert abs(moved[0.0]) < 1e-6
+    assert moved[0.1] < -0.01          # the offset opposes positive motion: it pulls negative
