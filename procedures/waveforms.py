@@ -32,6 +32,11 @@ def check(kind: str, ratio: float, what: str = "waveform") -> None:
         raise InputError(f"waveform ratio must be in [0.2, 1], got {ratio!r}")
 
 
+def label(kind: str, ratio: float) -> str:
+    """How records and reports name the waveform: "sine" or "two_level 0.6"."""
+    return kind if kind == "sine" else f"{kind} {ratio:g}"
+
+
 def level(phase, kind: str = "sine", ratio: float = 0.6):
     """Amplitude factor at ``phase`` (cycles since the start): 1, or ``ratio`` on every
     second cycle between torque zero crossings."""
