@@ -4,6 +4,7 @@ default derived from the joint's preset, so each consumer reads one complete dic
 
 Keys (units: rad / N·m for revolute joints, m / N for prismatic ones):
   id, preset, transport ("canopen" | "serial" | "simulated")
+  physics : the emulated joint's own physics instead of a preset (virtual_drives.truth)
   CANopen : node_id, interface, channel, bitrate, host, port (socketcand), host_node_id
   serial  : port (device path), baudrate, axis, checksum, turns_per_unit
   scaling : counts_per_unit (encoder counts per unit), rated_torque (N·m at 1000 per-mille)
@@ -59,6 +60,11 @@ def complete_joint(joint: dict) -> dict:
     if j.get("preset") is not None:
         from virtual_drives.presets import preset
         spec = preset(j["preset"])          # InputError for an unknown name
+    physics = j.get("physics")
+    if spec is None and isinstance(physics, dict) and "encoder_resolution" in physics:
+        # a joint described by its own physics: the host's scaling defaults to its encoder
+        j.setdefault("counts_per_unit", 1.0 / config_number(
+            physics["encoder_resolution"], f"joint {name!r}: physics.encoder_resolution"))
     needed = ("position_limits", "velocity_limit", "torque_limit", "counts_per_unit")
     if spec is None and any(k not in j for k in needed):
         raise InputError(f"joint {name!r}: give a 'preset' or all of {', '.join(needed)}")

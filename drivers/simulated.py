@@ -17,6 +17,7 @@ from drivers.protocols import (DriveError, DriveFault, DriveState, DriveStatus, 
                                Sample)
 from virtual_drives.joint import VirtualJoint
 from virtual_drives.presets import preset
+from virtual_drives.truth import joint_truth
 
 _BRAKE_MAX_S = 30.0  # a quick stop that has not stopped the axis by then leaves it braked
 
@@ -25,7 +26,8 @@ class SimulatedDrive:
     def __init__(self, joint: dict, control_period: float | None = None, seed: int | None = None):
         self.name = str(joint["id"])
         self.joint = joint
-        spec = preset(joint.get("preset", self.name))
+        truth = joint_truth(joint) if joint.get("physics") is not None else None
+        spec = truth.spec if truth else preset(joint.get("preset", self.name))
         self.dt = float(control_period or joint.get("control_period", 0.001))
         lo, hi = joint.get("position_limits", spec.position_limits)
         self.limits = (float(lo), float(hi))
@@ -33,7 +35,8 @@ class SimulatedDrive:
         self.torque_limit = float(joint.get("torque_limit", spec.torque_limit))
         start = joint.get("start", joint.get("hold"))
         self.vj = VirtualJoint(spec, dt=self.dt, seed=int(joint.get("seed", 0) if seed is None else seed),
-                               q0=None if start is None else float(start))
+                               q0=None if start is None else float(start),
+                               extra=truth.extra if truth else None)
         self.state = DriveState.DISABLED
         self.faults: list[str] = []
         self.cycles = 0

@@ -204,12 +204,13 @@ def _open_rig(cfg: BenchConfig, seed: int, cancel: Cancel, st: CalibrationSettin
 
 
 def check_virtual(cfg: BenchConfig) -> None:
-    """The virtual transport emulates each drive from its joint's ``preset`` (the physical
-    truth); a bench without one (real hardware) cannot be emulated."""
+    """The virtual transport emulates each drive from its joint's ``preset`` or ``physics``
+    table (the physical truth); a bench without either (real hardware) cannot be emulated."""
     for j in cfg.joints:
-        if j["transport"] != "simulated" and not j.get("preset"):
+        if j["transport"] != "simulated" and not j.get("preset") and not j.get("physics"):
             raise InputError(f"joint {j['id']!r} has no preset: the virtual transport emulates each "
-                             f"drive from its joint's preset (give preset = \"<name>\")")
+                             f"drive from its joint's preset (give preset = \"<name>\") or its "
+                             f"physics ([joints.physics], see docs/procedures.md)")
 
 
 def _close(rig: Rig) -> None:
@@ -255,7 +256,7 @@ def _stage_search(store, cfg, rig, plan, step, emit, st, run_id):
         res.record.to_csv(d / "record.csv")
         summary["record"] = str(d / "record.csv")
     _end_child(store, rig, child, cemit, "succeeded" if res.ok else "failed", summary, None if res.ok else res.reason)
-    step["result"] = {k: summary[k] for k in ("amplitude", "frequency", "reason")} | {
+    step["result"] = {k: summary[k] for k in ("amplitude", "frequency", "waveform", "reason")} | {
         "trials": len(res.trials), "record": summary.get("record")}
     if not res.ok:
         raise _StageFailed(res.reason)

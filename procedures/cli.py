@@ -30,6 +30,10 @@ def register(app: typer.Typer) -> None:
                                       help="virtual (emulated CANopen/serial drives reached through the real "
                                            "protocol stacks; default), simulated (in-process plugs, fast) or "
                                            "hardware (the drives the bench file names: CAN adapter, serial port)"),
+        excitation: Optional[str] = typer.Option(None, "--excitation",
+                                                 help="search waveform: sine, or two_level (alternate cycles at "
+                                                      "1 and 0.6 of the amplitude: breaks the cycle lock); "
+                                                      "default: SearchSettings.waveform"),
         rt_priority: int = typer.Option(0, "--rt-priority",
                                         help="SCHED_FIFO priority of this process, 1-98, for real-time benches "
                                              "(needs root, CAP_SYS_NICE or an rtprio limit); 0: normal"),
@@ -40,14 +44,19 @@ def register(app: typer.Typer) -> None:
                 raise BenchError(f"--transport must be virtual, simulated or hardware, got {transport!r}")
             from drivers.realtime import check_priority
             check_priority(rt_priority, "--rt-priority")
-            code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport, rt_priority)
+            if excitation is not None:
+                from procedures.waveforms import check
+                check(excitation, 0.6, "--excitation")
+            code = _calibrate(bench, joints, json_out, resume, data, seed, plots, transport, rt_priority,
+                              excitation)
         except BenchError as e:
             typer.echo(f"error: {e}", err=True)
             raise typer.Exit(2)
         raise typer.Exit(code)
 
 
-def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="virtual", rt_priority=0) -> int:
+def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="virtual", rt_priority=0,
+               excitation=None) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -56,11 +65,14 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
     from procedures.calibration import (STAGES, CalibrationSettings, calibrate, latest_resumable,
                                         start_calibration)
     from procedures.config import load_bench
+    from procedures.excitation import SearchSettings
 
     ids = [j.strip() for j in joints.split(",") if j.strip()] if joints else None
     if joints is not None and not ids:
         raise InputError("--joints is empty")
     cfg = load_bench(bench)          # validate before touching the store
+    for w in cfg.warnings:
+        typer.echo(f"warning: {w}", err=True)
     chosen = cfg.select(ids)
     if transport == "virtual":
         from procedures.calibration import check_virtual
@@ -78,7 +90,8 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
         raise InputError(f"{data}: cannot open the run store ({e.__class__.__name__}: {e})") from None
     store.recover()
     run_id = latest_resumable(store, bench) if resume else start_calibration(
-        store, bench, chosen, seed, options={"plots": plots, "rt_priority": rt_priority}, transport=transport)
+        store, bench, chosen, seed, options={"plots": plots, "rt_priority": rt_priority, "excitation": excitation},
+        transport=transport)
     planned = store.get_run(run_id)["config"]["joints"]
     console = Console(stderr=True)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[status]}"),
@@ -94,8 +107,9 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
             elif doc["name"] == "trial" and d.get("joint") in tasks:
                 progress.update(tasks[d["joint"]], status=f"search: trial {d['index']} {d['outcome']}")
 
+        search = SearchSettings() if excitation is None else SearchSettings(waveform=excitation)
         report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(
-            plots=plots, force_simulated=transport == "simulated", hardware=transport == "hardware"))
+            search=search, plots=plots, force_simulated=transport == "simulated", hardware=transport == "hardware"))
     text = json.dumps(report, indent=2, default=str)
     if json_out is not None:
         try:

@@ -4,8 +4,9 @@ A joint is a plain dict with the shared schema (id, preset, transport, node_id, 
 channel, bitrate, host, port, baudrate, axis, checksum, counts_per_unit, rated_torque,
 inertia, gravity, position_limits, velocity_limit, torque_limit, hold, heartbeat_ms,
 watchdog_s) so that the driver registry, the virtual bench and the procedures all read the
-same thing.  ``load_bench`` validates it and raises ``InputError`` with one line naming the
-problem.  Built-in benches (``micro2``, ``macro4``) ship as package data next to this module.
+same thing.  A virtual joint may carry ``physics``, its own truth instead of a ``preset``
+(``[joints.physics]`` after its ``[[joints]]``; see ``virtual_drives.truth``).  ``load_bench``
+validates it and raises ``InputError`` with one line naming the problem.  Built-in benches (``micro2``, ``macro4``) ship as package data next to this module.
 """
 from __future__ import annotations
 
@@ -36,6 +37,8 @@ class BenchConfig:
     raw: dict = field(default_factory=dict)
     # lock-step only: a held joint at rest is cycled once per idle_period (procedures.rig)
     idle_period: float = 0.02
+    # not errors: e.g. a [joints.physics] friction that is not passive (Section II)
+    warnings: list[str] = field(default_factory=list)
 
     def joint(self, joint_id: str) -> dict:
         for j in self.joints:
@@ -93,9 +96,9 @@ def parse_bench(raw: dict, source: str = "bench") -> BenchConfig:
     if isinstance(idle, bool) or not isinstance(idle, _NUMBER) or not (period <= idle <= 0.1):
         raise InputError(f"{source}: idle_period must be a number in [control_period, 0.1] s, got {idle!r}")
     seen: set[str] = set()
-    out = []
+    out, warnings = [], []
     for n, j in enumerate(joints, start=1):
-        jj = _validate_joint(j, f"{source}: joint #{n}")
+        jj = _validate_joint(j, f"{source}: joint #{n}", warnings)
         if jj["id"] in seen:
             raise InputError(f"{source}: duplicate joint id {jj['id']!r}")
         seen.add(jj["id"])
@@ -107,7 +110,7 @@ def parse_bench(raw: dict, source: str = "bench") -> BenchConfig:
     return BenchConfig(name=str(raw.get("name", Path(source).stem)), joints=out,
                        control_period=float(period), clock=clock,
                        description=str(raw.get("description", "")), source=source, raw=raw,
-                       idle_period=float(idle))
+                       idle_period=float(idle), warnings=warnings)
 
 
 def _num(j: dict, key: str, where: str, positive: bool = True, default=None) -> float:
@@ -128,7 +131,7 @@ def _pair(j: dict, key: str, where: str, default=None) -> list[float]:
     return [float(v[0]), float(v[1])]
 
 
-def _validate_joint(j, where: str) -> dict:
+def _validate_joint(j, where: str, warnings: list[str]) -> dict:
     if not isinstance(j, dict):
         raise InputError(f"{where}: must be a table")
     jid = j.get("id")
@@ -141,6 +144,9 @@ def _validate_joint(j, where: str) -> dict:
         raise InputError(f"{where}: transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
     if "preset" in j and not isinstance(j["preset"], str):
         raise InputError(f"{where}: preset must be a virtual joint preset name")
+    if "preset" in j and "physics" in j:
+        raise InputError(f"{where}: give either preset or [joints.physics] (the emulated joint's "
+                         f"truth), not both")
     jt = j.get("joint_type", "revolute")
     if jt not in ("revolute", "prismatic"):
         raise InputError(f"{where}: joint_type must be revolute or prismatic, got {jt!r}")
@@ -160,6 +166,10 @@ def _validate_joint(j, where: str) -> dict:
     for key in ("heartbeat_ms", "watchdog_s", "rated_torque", "counts_per_unit", "baudrate", "bitrate"):
         if key in j:
             out[key] = _num(j, key, where)
+    if "physics" in j:
+        from virtual_drives.truth import check_physics   # the emulated joint's own truth
+        out["physics"], warns = check_physics(j["physics"], out, where)
+        warnings.extend(warns)
     return out
 
 

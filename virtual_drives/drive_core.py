@@ -24,11 +24,10 @@ import threading
 import time
 from dataclasses import replace
 
-import numpy as np
 
 from drivers.protocols import DriveState
 from virtual_drives.joint import VirtualJoint
-from virtual_drives.presets import preset
+from virtual_drives.truth import joint_truth
 
 FAULT_WATCHDOG = "watchdog"
 PLL_GAIN = 0.1          # share of a command's phase error the drive's grid absorbs per command
@@ -40,12 +39,10 @@ class DriveCore:
         self.name = joint["id"]
         self.clock = clock
         self.dt = float(joint["control_period"])
-        # the preset is the physical truth (its inertia, friction); the joint's gravity and
-        # ``extra`` effects pass through, its declared inertia is only the drive's own model
-        spec = preset(joint["preset"]).with_(gravity=tuple(joint["gravity"]))
-        extra = joint.get("extra")
-        self.vj = VirtualJoint(spec, dt=self.dt, seed=seed,
-                               extra=None if extra is None else np.asarray(extra, float),
+        # the preset (with the joint's gravity) or the joint's own physics table is the
+        # physical truth; the joint's declared inertia is only the drive's own model
+        truth = joint_truth(joint)
+        self.vj = VirtualJoint(truth.spec, dt=self.dt, seed=seed, extra=truth.extra,
                                q0=joint.get("q0", joint["hold"]))
         self.vj.advance(0.0, periods=0)   # load the compiled kernel now, not on the first SYNC
         self.lock = threading.RLock()

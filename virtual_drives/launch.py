@@ -80,8 +80,9 @@ class Emulators:
                 adapter = None
             if adapter is not None:
                 self.ticker.cores.append(self.drives[j["id"]][0])
-            if adapter is not None:
-                j.pop("extra", None)      # hidden physics stays on the drive side
+            if adapter is not None:       # hidden physics stays on the drive side
+                j.pop("extra", None)
+                j.pop("physics", None)
             self.joints.append(j)
         self.ticker.start()
 

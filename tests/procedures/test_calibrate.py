@@ -133,6 +133,7 @@ def test_unreachable_sliding_ends_with_reason(tmp_path):
     (["--bench", "nope"], "no such bench file"),
     (["--bench", "macro4", "--joints", "j9"], "no joint 'j9'"),
     (["--bench", "macro4", "--rt-priority", "99"], "--rt-priority must be 0 (off) to 98"),
+    (["--bench", "macro4", "--excitation", "chirp"], "--excitation must be one of sine, two_level"),
 ])
 def test_bad_input_exit_2(tmp_path, args, message):
     r = CliRunner().invoke(app, ["calibrate", *args, "--data", str(tmp_path)])
