@@ -116,6 +116,11 @@ def sine_torque(amplitude: float, frequency: float, t: np.ndarray,
     return amplitude * env * np.sin(w * t - 0.5 * math.pi)
 
 
+def lagged(t: np.ndarray, command: np.ndarray, lag: float) -> np.ndarray:
+    """The held command as a joint feels it ``lag`` seconds late (zero before the start)."""
+    return np.interp(t - lag, t, command, left=0.0) if lag > 0 else command
+
+
 @dataclass
 class Simulation:
     """What a simulated run knows and a measured one never does."""
@@ -139,7 +144,7 @@ def simulate_record(spec: JointSpec, amplitude: float, frequency: float, duratio
     t = np.arange(n) * dt
     recorded = sine_torque(amplitude, frequency, t) if tau is None else np.asarray(tau, float)
     # the held command, delayed: what the joint feels in each interval
-    cmd = np.interp(t - torque_lag, t, recorded, left=0.0) if torque_lag > 0 else recorded
+    cmd = lagged(t, recorded, torque_lag)
     ev = terms.empty() if extra is None else np.array(extra, dtype=float)
     f = spec.friction
     n_sub = substeps_for(dt, spec.inertia, f.sigma0, f.sigma1, f.sigma2)
