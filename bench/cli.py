@@ -1,6 +1,6 @@
 """The ``bench`` command line.
 
-    bench simulate   a virtual joint under a sinusoidal torque -> record CSV
+    bench simulate   a virtual joint -> record CSV, shaped like users' data if asked
     bench analyze    identify the LuGre model of a record, diagnose what it misses
     bench calibrate  overnight calibration of a bench (procedures)
     bench serve      the REST service (api)
@@ -34,23 +34,42 @@ def fail(message: str) -> None:
 @app.command()
 def simulate(
     joint: str = typer.Option("j1", help="virtual joint preset: linear, rotary, j1..j4"),
-    amplitude: Optional[float] = typer.Option(None, help="torque amplitude [N·m or N]; preset default if omitted"),
-    frequency: Optional[float] = typer.Option(None, help="excitation frequency [Hz]; preset default if omitted"),
+    condition: Optional[str] = typer.Option(None, help="a named recording condition, e.g. 'coloured process noise' (see README); the options below override it"),
+    excitation: Optional[str] = typer.Option(None, help="sine (the paper's torque sine), two-tone (two torque sines, golden-ratio frequencies) or pd (PD tracking; the torque column is the controller's output)"),
+    amplitude: Optional[float] = typer.Option(None, help="torque amplitude [N·m or N] of sine / two-tone (two-tone: the peak of both); preset default if omitted"),
+    frequency: Optional[float] = typer.Option(None, help="excitation frequency [Hz] (two-tone: the first tone; pd: the reference's first sine); preset default if omitted"),
+    tone2_amplitude: Optional[float] = typer.Option(None, help="two-tone: amplitude of the second tone (with --tone2-frequency; default: 65:35 split of --amplitude)"),
+    tone2_frequency: Optional[float] = typer.Option(None, help="two-tone: frequency of the second tone [Hz] (default: golden ratio x --frequency)"),
+    reference_amplitude: Optional[float] = typer.Option(None, help="pd: total amplitude of the two reference sines [rad or m] (default: from the velocity, travel and torque limits)"),
+    bandwidth: Optional[float] = typer.Option(None, help="pd: natural frequency of the PD loop [rad/s] (default: 5x the reference, at least 60)"),
     duration: float = typer.Option(20.0, help="record length [s]"),
-    rate: float = typer.Option(1000.0, help="sample rate [Hz]"),
+    rate: Optional[float] = typer.Option(None, help="control and sample rate [Hz] (default 1000)"),
     seed: int = typer.Option(0, help="noise seed"),
-    torque_noise: Optional[float] = typer.Option(None, help="std of the torque measurement noise"),
+    process_noise: Optional[float] = typer.Option(None, help="std of a disturbance torque the joint feels and the record does not contain [N·m or N]"),
+    process_noise_tau: Optional[float] = typer.Option(None, help="correlation time of the process noise [s]: low-pass (AR(1)) noise; with --process-noise-colour pink, the longest"),
+    process_noise_colour: Optional[str] = typer.Option(None, help="white, lowpass or pink (1/f); default white, lowpass when --process-noise-tau is given"),
+    torque_noise: Optional[float] = typer.Option(None, help="std of the torque (or friction) reading noise: measurement noise only"),
     encoder_resolution: Optional[float] = typer.Option(None, help="position per encoder count"),
+    logger: bool = typer.Option(False, "--logger", help="sample like a PC logger: jittered 1-13 ms steps, dropped samples, occasional stalls"),
+    logger_step: Optional[float] = typer.Option(None, help="the logger's mean step [s] (default 0.004; steps stay within 1-13 ms)"),
+    logger_drop: Optional[float] = typer.Option(None, help="probability that the logger loses a sample (default 0.01)"),
+    logger_gaps: Optional[float] = typer.Option(None, help="logger stalls of 30-300 ms per minute (default 2)"),
+    output_kind: Optional[str] = typer.Option(None, help="torque (the applied torque) or friction (tau - M q'' from the true states, as torque-sensing arms publish; inertia 0 in the metadata)"),
+    velocity_column: bool = typer.Option(False, "--velocity-column", help="also write qd, the joint velocity"),
+    torque_offset: Optional[float] = typer.Option(None, help="constant offset left in the recorded torque or friction column (the joint does not feel it)"),
+    gravity_left: Optional[str] = typer.Option(None, help="uncompensated gravity left in the recorded column: 'A,B' for A sin q + B cos q, or 'joint' for the preset's own"),
     declared_inertia: Optional[float] = typer.Option(None, help="inertia written to the record (default: the true one)"),
     param: List[str] = typer.Option([], "--param", help="override a friction parameter, e.g. --param Fc=2.0 (also delta)"),
     effect: List[str] = typer.Option([], "--effect", help="inject a hidden effect, e.g. cogging:amplitude=0.4,pitch=0.025"),
     output: Path = typer.Option(..., "--output", "-o", help="CSV file to write"),
 ):
-    """Simulate a virtual joint under tau_m sin(w t) and write a record CSV."""
+    """Simulate a virtual joint and write a record CSV: the paper's torque sine by default;
+    other excitations, noise models, loggers and outputs shape it like users' data."""
     try:
         from bench.effects.inject import parse_injections
         from bench.validate import finite_arrays, friction_parameter, simulate_settings
-        from virtual_drives.joint import simulate_record
+        from virtual_drives.conditions import make_record, recording_for
+        from virtual_drives.recording import Logger, Recording
         from virtual_drives.presets import preset
         spec = preset(joint)
         if param:
@@ -65,31 +84,71 @@ def simulate(
                     raise BenchError(f"--param {p!r}: value must be a number") from None
                 changes[k] = friction_parameter(k, value)
             spec = spec.with_(friction=spec.friction.with_(**changes))
+        rec = recording_for(spec, condition, seed) if condition else Recording()
+        given = {k: v for k, v in dict(
+            excitation=excitation, amplitude=amplitude, frequency=frequency, bandwidth=bandwidth, rate=rate,
+            process_noise=process_noise, process_noise_tau=process_noise_tau, torque_noise=torque_noise,
+            encoder_resolution=encoder_resolution, output=output_kind, torque_offset=torque_offset).items()
+            if v is not None}
+        rec = rec.with_(**given)
+        if process_noise_colour is not None or process_noise_tau is not None:
+            colour = process_noise_colour or ("lowpass" if rec.process_noise_tau > 0 else "white")
+            rec = rec.with_(process_noise_colour=colour)
+        if tone2_amplitude is not None or tone2_frequency is not None:
+            if tone2_amplitude is None or tone2_frequency is None:
+                raise BenchError("--tone2-amplitude and --tone2-frequency go together")
+            rec = rec.with_(tone2=(tone2_amplitude, tone2_frequency))
+        if reference_amplitude is not None:
+            from virtual_drives.recording import GOLDEN
+            f = rec.frequency if rec.frequency is not None else spec.excitation[1]
+            rec = rec.with_(reference=((0.625 * reference_amplitude, f), (0.375 * reference_amplitude, GOLDEN * f)))
+        if logger or any(x is not None for x in (logger_step, logger_drop, logger_gaps)):
+            lg = rec.logger or Logger()
+            rec = rec.with_(logger=Logger(
+                step=lg.step if logger_step is None else logger_step,
+                drop=lg.drop if logger_drop is None else logger_drop,
+                gaps_per_minute=lg.gaps_per_minute if logger_gaps is None else logger_gaps))
+        if velocity_column:
+            rec = rec.with_(velocity_column=True)
+        if gravity_left is not None:
+            rec = rec.with_(gravity_left=_gravity_pair(gravity_left, spec))
         ev, inertia_factor, delta, lag = parse_injections(effect, spec)
         finite_arrays("--effect", values=ev, inertia_factor=inertia_factor, delta=delta, torque_lag=lag)
-        if delta is not None:
-            spec = spec.with_(friction=spec.friction.with_(delta=delta))
-        a = amplitude if amplitude is not None else spec.excitation[0]
-        f = frequency if frequency is not None else spec.excitation[1]
-        # every number checked before anything is allocated (a 1e9 s record, a 1e12 Hz rate)
-        simulate_settings(a, f, duration, rate, seed, torque_noise, encoder_resolution, declared_inertia)
-        declared = declared_inertia if declared_inertia is not None else spec.inertia * inertia_factor
-        sim = simulate_record(spec, a, f, duration, dt=1.0 / rate, seed=seed, extra=ev,
-                              declared_inertia=declared, torque_noise=torque_noise,
-                              encoder_resolution=encoder_resolution, torque_lag=lag)
-        r = sim.record
-        finite_arrays(f"joint {spec.name}", t=r.t, tau=r.tau, q=r.q, qd=r.qd)
-        if effect:
-            sim.record.meta["injected"] = "; ".join(effect)
-        sim.record.to_csv(output)
+        # every number checked before anything is allocated (a 1e9 s record, a 1e12 Hz rate);
+        # the recording's own settings by Recording.check inside make_record
+        simulate_settings(rec.amplitude if rec.amplitude is not None else spec.excitation[0],
+                          rec.frequency if rec.frequency is not None else spec.excitation[1],
+                          duration, rec.rate, seed, rec.torque_noise, rec.encoder_resolution, declared_inertia)
+        record, truth = make_record(spec, rec, seed=seed, duration=duration, effects=effect,
+                                    declared_inertia=declared_inertia)
+        finite_arrays(f"joint {spec.name}", t=record.t, tau=record.tau, q=record.q, qd=record.qd)
+        record.meta["condition"] = condition or "custom"
+        record.to_csv(output)
     except BenchError as e:
         fail(str(e))
     except OSError as e:
         fail(f"cannot write {output}: {e.strerror}")
     lo, hi = spec.position_limits
-    q = sim.true_q
-    out.print(f"wrote {output}: {len(q)} samples, joint {spec.name}, tau_m={a:g} at {f:g} Hz, "
+    q = truth.q
+    what = {"sine": "torque sine", "two-tone": "two torque tones", "pd": "PD tracking"}[rec.excitation]
+    out.print(f"wrote {output}: {len(record.t)} samples, joint {spec.name}, {what}, "
+              f"{'friction' if rec.output == 'friction' else 'torque'} column, "
               f"q in [{q.min():.4g}, {q.max():.4g}] (workspace [{lo:g}, {hi:g}])")
+
+
+def _gravity_pair(text: str, spec) -> tuple[float, float]:
+    if spec.joint_type != "revolute":
+        raise BenchError("--gravity-left applies to revolute joints only")
+    if text.strip() == "joint":
+        if spec.gravity == (0.0, 0.0):
+            raise BenchError(f"--gravity-left joint: joint {spec.name} carries no gravity; give 'A,B'")
+        return spec.gravity
+    parts = text.split(",")
+    try:
+        a, b = (float(x) for x in parts)
+    except ValueError:
+        raise BenchError(f"--gravity-left {text!r}: expected 'A,B' (A sin q + B cos q) or 'joint'") from None
+    return a, b
 
 
 @app.command()

@@ -97,37 +97,37 @@ class Recording:
 
     def check(self) -> None:
         """One line naming the first setting out of range (InputError)."""
-        for name, value, choices in (("excitation", self.excitation, EXCITATIONS),
-                                     ("output", self.output, OUTPUTS),
-                                     ("process-noise colour", self.process_noise_colour, COLOURS)):
+        for name, value, choices in (("--excitation", self.excitation, EXCITATIONS),
+                                     ("--output-kind", self.output, OUTPUTS),
+                                     ("--process-noise-colour", self.process_noise_colour, COLOURS)):
             if value not in choices:
                 raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
-        _number("rate", self.rate, 1.0, MAX_RATE)
+        _number("--rate", self.rate, 1.0, MAX_RATE)
         for name in ("amplitude", "frequency", "bandwidth", "damping"):
             if getattr(self, name) is not None:
-                _number(name, getattr(self, name), 0.0, math.inf, low_open=True)
+                _number("--" + name, getattr(self, name), 0.0, math.inf, low_open=True)
         if self.tone2 is not None:
-            _number("second tone amplitude", self.tone2[0], 0.0, math.inf, low_open=True)
-            _number("second tone frequency", self.tone2[1], 0.0, math.inf, low_open=True)
-        _number("process noise", self.process_noise, 0.0, math.inf)
-        _number("process-noise correlation time", self.process_noise_tau, 0.0, 1e4)
+            _number("--tone2-amplitude", self.tone2[0], 0.0, math.inf, low_open=True)
+            _number("--tone2-frequency", self.tone2[1], 0.0, math.inf, low_open=True)
+        _number("--process-noise", self.process_noise, 0.0, math.inf)
+        _number("--process-noise-tau", self.process_noise_tau, 0.0, 1e4)
         if self.process_noise > 0 and self.process_noise_colour != "white" \
                 and not self.process_noise_tau > 1.0 / self.rate:
-            raise InputError(f"{self.process_noise_colour} process noise needs a correlation time longer "
+            raise InputError(f"{self.process_noise_colour} process noise needs --process-noise-tau longer "
                              f"than the control period {1.0 / self.rate:g} s, got {self.process_noise_tau:g}")
         for name in ("torque_noise", "encoder_resolution"):
             if getattr(self, name) is not None:
-                _number(name.replace("_", " "), getattr(self, name), 0.0, math.inf)
-        _number("torque offset", self.torque_offset, -math.inf, math.inf)
+                _number("--" + name.replace("_", "-"), getattr(self, name), 0.0, math.inf)
+        _number("--torque-offset", self.torque_offset, -math.inf, math.inf)
         for x in self.gravity_left:
-            _number("gravity left", x, -math.inf, math.inf)
+            _number("--gravity-left", x, -math.inf, math.inf)
         if self.logger is not None:
             lg = self.logger
             _number("logger min step", lg.min_step, 0.0, 1.0, low_open=True)
             _number("logger max step", lg.max_step, lg.min_step, 10.0)
-            _number("logger mean step", lg.step, lg.min_step, lg.max_step, low_open=True)
-            _number("logger drop probability", lg.drop, 0.0, 0.5)
-            _number("logger gaps per minute", lg.gaps_per_minute, 0.0, 60.0)
+            _number("--logger-step", lg.step, lg.min_step, lg.max_step, low_open=True)
+            _number("--logger-drop", lg.drop, 0.0, 0.5)
+            _number("--logger-gaps", lg.gaps_per_minute, 0.0, 60.0)
             _number("logger gap length", lg.gap[0], 0.0, lg.gap[1], low_open=True)
 
 
@@ -136,12 +136,12 @@ MAX_SAMPLES = 5e7     # control periods in one record (400 MB per signal of the 
 
 
 def _number(what: str, x, lo: float, hi: float, low_open: bool = False) -> float:
-    ok = isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and \
-        (x > lo if low_open else x >= lo) and x <= hi
-    if not ok:
-        rng = f"{'>' if low_open else '>='} {lo:g}" + (f" and <= {hi:g}" if math.isfinite(hi) else "")
-        raise InputError(f"{what} must be a finite number {rng}, got {x!r}" if math.isfinite(lo) or math.isfinite(hi)
-                         else f"{what} must be a finite number, got {x!r}")
+    """``x`` if it is a finite number in [lo, hi] ((lo, hi] if ``low_open``); else InputError."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) \
+            or not (x > lo if low_open else x >= lo) or x > hi:
+        bounds = [f"{'>' if low_open else '>='} {lo:g}"] if math.isfinite(lo) else []
+        bounds += [f"<= {hi:g}"] if math.isfinite(hi) else []
+        raise InputError(f"{what} must be a finite number{' ' + ' and '.join(bounds) if bounds else ''}, got {x!r}")
     return float(x)
 
 
@@ -284,7 +284,7 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
          declared_inertia: float | None = None) -> tuple[Record, Truth]:
     """Simulate ``spec`` as ``rec`` describes; returns the record and the truth."""
     rec.check()
-    _number("duration", duration, 0.0, MAX_SAMPLES / rec.rate, low_open=True)
+    _number("--duration", duration, 0.0, MAX_SAMPLES / rec.rate, low_open=True)
     rng = np.random.default_rng(seed)
     dt = 1.0 / rec.rate
     n = int(round(duration / dt))
