@@ -54,10 +54,11 @@ def _reading(spec, rng):
 
 
 def _coarse(spec, rng):
-    # 2^11-2^13 counts over the travel of the joint's sine test: a cheap output-side encoder
-    # (about 5000 counts per turn on the rotary motor, 40 um on the linear stage)
+    # 12-14 bits over the travel of the joint's sine test: 5k-20k counts per turn on the rotary
+    # motor, 10-40 um on the linear stage, 2^16-2^18 per output turn on j1 (a motor encoder
+    # behind its gear gives 2^22)
     from virtual_drives.scenarios import travel_of
-    res = travel_of(spec) / 2.0 ** rng.uniform(11.0, 13.0)
+    res = travel_of(spec) / 2.0 ** rng.uniform(12.0, 14.0)
     return Recording(encoder_resolution=max(res, spec.encoder_resolution))
 
 
@@ -112,7 +113,7 @@ CONDITIONS: dict[str, Condition] = dict((
     _c("white process noise", "a white disturbance torque the record does not contain", _white),
     _c("coloured process noise", "a low-pass (AR(1)) disturbance torque the record does not contain", _coloured),
     _c("torque-reading noise only", "white noise on the torque reading, none felt by the joint", _reading),
-    _c("coarse encoder", "2^11-2^13 encoder counts over the travel", _coarse),
+    _c("coarse encoder", "2^12-2^14 encoder counts over the travel", _coarse),
     _c("2 kHz", "control and record at 2 kHz", _rate(2000.0)),
     _c("jittered timestamps with dropped samples", "a PC logger: 1-13 ms steps, lost samples, stalls", _jitter),
     _c("friction-torque record", "the friction torque a torque-sensing arm publishes, inertia 0", _friction),
