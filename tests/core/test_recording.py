@@ -12,6 +12,7 @@ from bench.errors import InputError
 from virtual_drives.conditions import CONDITIONS, EXTRA_CONDITIONS, make_record, recording_for
 from virtual_drives.joint import quantise
 from virtual_drives.presets import PRESETS
+from virtual_drives.scenarios import travel_of
 from virtual_drives.recording import GOLDEN, Logger, Recording, _hermite, make, process_noise
 
 
@@ -182,7 +183,8 @@ def test_condition_magnitudes_scale_with_the_joint():
         assert 0.02 * fc <= w.process_noise <= 0.08 * fc and w.process_noise_colour == "white"
         assert 0.01 * fc <= c.process_noise <= 0.04 * fc and 0.005 <= c.process_noise_tau <= 0.05
         assert 0.005 * fc <= r.torque_noise <= 0.03 * fc and r.process_noise == 0
-        assert recording_for(spec, "coarse encoder", 5311).encoder_resolution > 10 * spec.encoder_resolution
+        res = recording_for(spec, "coarse encoder", 5311).encoder_resolution
+        assert 12 <= math.log2(travel_of(spec) / res) <= 14 and res > 4 * spec.encoder_resolution
     with pytest.raises(InputError, match="unknown condition"):
         make_record(PRESETS["j1"], "wet floor")
 
