@@ -157,7 +157,8 @@ class Truth:
     command: np.ndarray           # torque commanded (what a torque record logs, before noise)
     felt: np.ndarray              # torque the joint felt: lagged command + disturbance
     disturbance: np.ndarray       # process noise
-    friction: np.ndarray          # tau - M q'' at the grid instants, true states, no sensor noise
+    friction: np.ndarray          # command - M_declared q'' at the grid instants (true states, no
+                                  # sensor noise): the friction column before noise and offsets
     ev: np.ndarray = field(default_factory=terms.empty)
     torque_lag: float = 0.0
     declared_inertia: float = 0.0
@@ -236,11 +237,10 @@ def pd_gains(spec: JointSpec, rec: Recording, comps) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _closed_loop(ff, q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0,
-                 kp, kd, res, limit):
-    """PD (on the quantised encoder, velocity by backward difference) plus feed-forward
-    ``ff``, stepped one control period at a time through the shared physics."""
-    n = ff.shape[0]
+def _closed_loop(q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0, kp, kd, res, limit):
+    """PD on the quantised encoder (velocity by backward difference), stepped one control
+    period at a time through the shared physics."""
+    n = q_ref.shape[0]
     cmd, felt = np.empty(n), np.empty(n)
     q, v, z = np.empty(n), np.empty(n), np.empty(n)
     one = np.empty(1)
@@ -253,7 +253,7 @@ def _closed_loop(ff, q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0,
         qm = qi if res <= 0 else round(qi / res) * res
         vm = 0.0 if i == 0 else (qm - qm_prev) / dt
         qm_prev = qm
-        u = ff[i] + kp * (q_ref[i] - qm) + kd * (v_ref[i] - vm)
+        u = kp * (q_ref[i] - qm) + kd * (v_ref[i] - vm)
         cmd[i] = min(limit, max(-limit, u))
         # the command the joint feels, lag_steps periods late (linear between periods)
         a = cmd[i - k] if i - k >= 0 else 0.0
@@ -284,7 +284,9 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
          declared_inertia: float | None = None) -> tuple[Record, Truth]:
     """Simulate ``spec`` as ``rec`` describes; returns the record and the truth."""
     rec.check()
-    _number("--duration", duration, 0.0, MAX_SAMPLES / rec.rate, low_open=True)
+    _number("--duration", duration, 10.0 / rec.rate, MAX_SAMPLES / rec.rate)
+    if spec.joint_type != "revolute" and any(rec.gravity_left):
+        raise InputError("--gravity-left applies to revolute joints only")
     rng = np.random.default_rng(seed)
     dt = 1.0 / rec.rate
     n = int(round(duration / dt))
@@ -301,7 +303,7 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
         q_ref, v_ref = pd_reference(comps, centred(spec), t)
         kp, kd = pd_gains(spec, rec, comps)
         cmd, felt, q, v, z, q_end, v_end = _closed_loop(
-            np.zeros(n), q_ref, v_ref, dist, torque_lag / dt, dt, n_sub, M, f.vector(), ev,
+            q_ref, v_ref, dist, torque_lag / dt, dt, n_sub, M, f.vector(), ev,
             centred(spec), kp, kd, res, spec.torque_limit)
     else:
         cmd = _open_loop_torque(spec, rec, t)
