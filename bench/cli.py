@@ -54,6 +54,7 @@ def simulate(
     logger_step: Optional[float] = typer.Option(None, help="the logger's mean step [s] (default 0.004; steps stay within 1-13 ms)"),
     logger_drop: Optional[float] = typer.Option(None, help="probability that the logger loses a sample (default 0.01)"),
     logger_gaps: Optional[float] = typer.Option(None, help="logger stalls of 30-300 ms per minute (default 2)"),
+    logger_start: Optional[float] = typer.Option(None, help="the logger's first timestamp [s], e.g. a Unix time (default 0)"),
     output_kind: Optional[str] = typer.Option(None, help="torque (the applied torque) or friction (tau - M q'' from the true states, as torque-sensing arms publish; inertia 0 in the metadata)"),
     velocity_column: bool = typer.Option(False, "--velocity-column", help="also write qd, the joint velocity"),
     torque_offset: Optional[float] = typer.Option(None, help="constant offset left in the recorded torque or friction column (the joint does not feel it)"),
@@ -102,12 +103,13 @@ def simulate(
             from virtual_drives.recording import GOLDEN
             f = rec.frequency if rec.frequency is not None else spec.excitation[1]
             rec = rec.with_(reference=((0.625 * reference_amplitude, f), (0.375 * reference_amplitude, GOLDEN * f)))
-        if logger or any(x is not None for x in (logger_step, logger_drop, logger_gaps)):
+        if logger or any(x is not None for x in (logger_step, logger_drop, logger_gaps, logger_start)):
             lg = rec.logger or Logger()
             rec = rec.with_(logger=Logger(
                 step=lg.step if logger_step is None else logger_step,
                 drop=lg.drop if logger_drop is None else logger_drop,
-                gaps_per_minute=lg.gaps_per_minute if logger_gaps is None else logger_gaps))
+                gaps_per_minute=lg.gaps_per_minute if logger_gaps is None else logger_gaps,
+                start=lg.start if logger_start is None else logger_start))
         if velocity_column:
             rec = rec.with_(velocity_column=True)
         if gravity_left is not None:

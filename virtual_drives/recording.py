@@ -46,13 +46,15 @@ GOLDEN = 0.5 * (1.0 + math.sqrt(5.0))  # the most irrational ratio: two tones ne
 class Logger:
     """A PC logger: steps of ``min_step`` plus a gamma-distributed delay (mean ``step``),
     capped at ``max_step``; each sample lost with probability ``drop``; stalls of
-    ``gap`` (min, max) seconds at ``gaps_per_minute``."""
+    ``gap`` (min, max) seconds at ``gaps_per_minute``.  Timestamps count from ``start`` (a
+    logger's clock: e.g. a Unix time)."""
     step: float = 0.004
     min_step: float = 0.001
     max_step: float = 0.013
     drop: float = 0.01
     gaps_per_minute: float = 2.0
     gap: tuple[float, float] = (0.03, 0.3)
+    start: float = 0.0
 
     def times(self, duration: float, rng: np.random.Generator) -> np.ndarray:
         n = int(duration / self.min_step) + 2
@@ -129,6 +131,7 @@ class Recording:
             _number("--logger-drop", lg.drop, 0.0, 0.5)
             _number("--logger-gaps", lg.gaps_per_minute, 0.0, 60.0)
             _number("logger gap length", lg.gap[0], 0.0, lg.gap[1], low_open=True)
+            _number("--logger-start", lg.start, 0.0, 1e10)
 
 
 MAX_RATE = 1e5        # Hz: beyond this the sub-stepped physics, not the recording, is the model
@@ -168,7 +171,8 @@ class Truth:
 
     def at_record(self, x: np.ndarray, record: Record) -> np.ndarray:
         """A grid signal interpolated at the record's timestamps."""
-        return np.interp(record.t, self.t, x)
+        start = self.recording.logger.start if self.recording.logger is not None else 0.0
+        return np.interp(record.t - start, self.t, x)
 
 
 def process_noise(n: int, dt: float, std: float, tau: float, colour: str,
@@ -346,6 +350,8 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     }
     if rec.output == "friction":
         meta["torque_column"] = "friction (tau - M q'')"
+    if rec.logger is not None:
+        t_rec = t_rec + rec.logger.start
     record = Record(t=t_rec, tau=column, q=q_meas, qd=v_rec.copy() if rec.velocity_column else None,
                     meta=meta)
     truth = Truth(spec=spec, recording=rec, t=t, q=q, v=v, z=z, command=cmd, felt=felt,
