@@ -121,15 +121,18 @@ def test_friction_output_is_tau_minus_M_qdd_of_the_truth(joint, excitation):
     assert np.sqrt(np.mean(err2 ** 2)) < 2e-3 * f.Fc
 
 
-def test_pd_tracking_follows_a_smooth_reference_inside_the_workspace():
-    spec = PRESETS["j1"].with_(encoder_resolution=2e-5)    # coarse: the quantisation shows
+@pytest.mark.parametrize("joint,resolution", [("j1", 2e-5), ("rotary", None), ("linear", None)])
+def test_pd_tracking_follows_a_smooth_reference_inside_the_workspace(joint, resolution):
+    spec = PRESETS[joint]
+    if resolution is not None:                             # coarse: the quantisation shows
+        spec = spec.with_(encoder_resolution=resolution)
     rec, tr = make(spec, Recording(excitation="pd", torque_noise=0.0), 30.0, seed=5308)
     lo, hi = spec.position_limits
     e = tr.q_ref - tr.q
     assert np.sqrt(np.mean(e ** 2)) < 0.05 * np.std(tr.q_ref)
     assert lo < tr.q.min() and tr.q.max() < hi and np.abs(rec.tau).max() <= spec.torque_limit
     v = tr.v
-    assert v.max() > 3 / spec.friction.alpha and v.min() < -3 / spec.friction.alpha  # slides both ways
+    assert v.max() > 2 / spec.friction.alpha and v.min() < -2 / spec.friction.alpha  # slides both ways
     # the recorded torque is the PD law on the quantised encoder (velocity by backward difference)
     qm = quantise(tr.q, spec.encoder_resolution)
     vm = np.r_[0.0, np.diff(qm) / 1e-3]
