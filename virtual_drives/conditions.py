@@ -5,8 +5,9 @@
 from the seed, relative to the joint's own friction (noise) and travel (encoder), so a
 condition is as hard on a 0.1 N·m direct drive as on a 1500 N·m geared joint.  Tuning and
 testing use disjoint seed ranges (tests/).  What a condition does not set stays the joint's
-own (its torque-reading noise, encoder, sine test at 1 kHz).  Effects from the library are injected on top with
-``effects=["cogging:amplitude=...", ...]`` (see ``virtual_drives.scenarios``).
+own (its torque-reading noise, encoder, sine test at 1 kHz).  Effects from the library are
+injected on top with ``effects=["cogging:amplitude=...", ...]`` (see
+``virtual_drives.scenarios``).
 
     record, truth = make_record(PRESETS["j1"], "coloured process noise", seed=5001)
 """
