@@ -10,7 +10,6 @@ User errors print one line on stderr and exit with status 2.
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import List, Optional
@@ -68,15 +67,12 @@ def simulate(
     """Simulate a virtual joint and write a record CSV: the paper's torque sine by default;
     other excitations, noise models, loggers and outputs shape it like users' data."""
     try:
+        from bench.effects.inject import parse_injections
+        from bench.validate import finite_arrays, friction_parameter, simulate_settings
         from virtual_drives.conditions import make_record, recording_for
         from virtual_drives.recording import Logger, Recording
-        from bench.validate import finite_arrays
         from virtual_drives.presets import preset
         spec = preset(joint)
-        if seed < 0:
-            raise BenchError(f"--seed must be >= 0, got {seed}")
-        if declared_inertia is not None and not (math.isfinite(declared_inertia) and declared_inertia > 0):
-            raise BenchError(f"--declared-inertia must be a finite number > 0, got {declared_inertia!r}")
         if param:
             changes = {}
             for p in param:
@@ -118,6 +114,13 @@ def simulate(
             rec = rec.with_(velocity_column=True)
         if gravity_left is not None:
             rec = rec.with_(gravity_left=_gravity_pair(gravity_left, spec))
+        ev, inertia_factor, delta, lag = parse_injections(effect, spec)
+        finite_arrays("--effect", values=ev, inertia_factor=inertia_factor, delta=delta, torque_lag=lag)
+        # every number checked before anything is allocated (a 1e9 s record, a 1e12 Hz rate);
+        # the recording's own settings by Recording.check inside make_record
+        simulate_settings(rec.amplitude if rec.amplitude is not None else spec.excitation[0],
+                          rec.frequency if rec.frequency is not None else spec.excitation[1],
+                          duration, rec.rate, seed, rec.torque_noise, rec.encoder_resolution, declared_inertia)
         record, truth = make_record(spec, rec, seed=seed, duration=duration, effects=effect,
                                     declared_inertia=declared_inertia)
         finite_arrays(f"joint {spec.name}", t=record.t, tau=record.tau, q=record.q, qd=record.qd)

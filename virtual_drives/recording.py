@@ -33,6 +33,7 @@ from bench import terms
 from bench.errors import InputError
 from bench.lugre import LuGreParams, interval_to_samples
 from bench.records import Record
+from bench.validate import MAX_RATE, MAX_SAMPLES, in_range
 from virtual_drives.joint import JointSpec, lagged, quantise, sine_torque
 from virtual_drives.physics import simulate, substeps_for
 
@@ -134,18 +135,10 @@ class Recording:
             _number("--logger-start", lg.start, 0.0, 1e10)
 
 
-MAX_RATE = 1e5        # Hz: beyond this the sub-stepped physics, not the recording, is the model
-MAX_SAMPLES = 5e7     # control periods in one record (400 MB per signal of the truth)
-
-
 def _number(what: str, x, lo: float, hi: float, low_open: bool = False) -> float:
-    """``x`` if it is a finite number in [lo, hi] ((lo, hi] if ``low_open``); else InputError."""
-    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) \
-            or not (x > lo if low_open else x >= lo) or x > hi:
-        bounds = [f"{'>' if low_open else '>='} {lo:g}"] if math.isfinite(lo) else []
-        bounds += [f"<= {hi:g}"] if math.isfinite(hi) else []
-        raise InputError(f"{what} must be a finite number{' ' + ' and '.join(bounds) if bounds else ''}, got {x!r}")
-    return float(x)
+    """bench.validate.in_range with infinite bounds meaning none."""
+    return in_range(x, what, lo if math.isfinite(lo) else None, hi if math.isfinite(hi) else None,
+                    lo_open=low_open)
 
 
 @dataclass
