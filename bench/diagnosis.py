@@ -184,7 +184,7 @@ def _contenders(screens: list[Screen], limit: int = 3) -> list[Screen]:
 # coarse encoder's staircase at every reversal), not physics.  4 (2x in rms): on tuning seeds a
 # position series "explained" 0.5 % of Fc on j1 with a coarse encoder, 0.3 % on its replay.
 ARTIFACT_RATIO = 4.0
-# An effect must remove at least this rms, relative to Fc, to be named: below it nothing is
+# An effect's fitted term must be at least this rms, relative to Fc, to be named: below it nothing is
 # worth a technician's time (the verdict's MIN_SIZE says the same of what is left).  On tuning
 # seeds, false effects under users' conditions removed 0.1-0.5 % of Fc, the smallest library
 # effect drawn by virtual_drives.scenarios removes ~2 % (a Stribeck exponent on a shallow dip
@@ -242,7 +242,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         for sc in screens:
             if sc.effect in rejected:
                 sc.significant = False
-            elif sc.significant and sc.mse_before - sc.mse_after < (MIN_EFFECT * data.coulomb) ** 2:
+            elif sc.significant and sc.size < MIN_EFFECT * data.coulomb:
                 sc.significant = False
             elif sc.significant and replay is not None:
                 if sc.effect not in artifact:

@@ -63,6 +63,7 @@ class Screen:
     t_stat: float
     score: float
     significant: bool
+    size: float = 0.0           # rms of the effect's fitted term (torque units)
 
 
 class CrossValidation:
@@ -190,9 +191,11 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         score = n_eff * math.log(max(mse_after, 1e-300)) + len(keys) * math.log(max(n_eff, 2.0))
         beta_all = cv.fit_all(full, r)
         beta = {k: float(b) for k, b in zip(keys, beta_all[J.shape[1]:])}
+        term = X @ beta_all[J.shape[1]:]
         s = Screen(effect.name, init, beta, mse_before, mse_after, explained, across, t, score,
                    explained >= MIN_EXPLAINED and t >= T_CRIT
-                   and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test))
+                   and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test),
+                   size=float(np.sqrt(np.mean(term * term))))
         if best is None or s.score < best.score:
             best = s
     return best
