@@ -174,7 +174,7 @@ class DriveCore:
         brake = self.brake and not self.powered
         if brake:
             s = self.vj.state
-            self.vj.state = replace(s, t=s.t + self.dt, v=0.0)
+            self.vj.state = replace(s, t=s.t + self.dt, v=0.0, v_load=0.0)
             self.vj.applied_torque = 0.0
         else:
             self.vj.advance(tau)
