@@ -37,6 +37,7 @@ class JointSpec:
     # encoder reads ("motor", as on most geared joints, or "load")
     load_fraction: float = 0.5
     encoder: str = "motor"
+    gear_ratio: float = 1.0               # 1: a direct drive
 
     @property
     def position_unit(self) -> str:

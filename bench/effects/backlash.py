@@ -15,7 +15,7 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import Context, Effect, check_known, explained_text, number
-from bench.effects.gear import GearEffect, format_angle
+from bench.effects.gear import GearEffect, best_gears, format_angle
 from bench.errors import InputError
 
 
@@ -28,7 +28,8 @@ class Backlash(GearEffect):
     def variants(self, ctx: Context) -> list[dict]:
         # a geared joint's play is a small fraction of its travel: 0.03 % to 3 %
         span = float(np.ptp(ctx.data.c.q_full))
-        return [{"bl_width": f * span, "bl_load": 0.0} for f in np.geomspace(3e-4, 3e-2, 9)]
+        grid = [(f * span, 0.0, 0.0) for f in np.geomspace(3e-4, 3e-2, 13)]
+        return [{"bl_width": w, "bl_load": 0.0} for w, _, _ in best_gears(ctx, grid)]
 
     def params(self, init):
         from bench.fitting import Param

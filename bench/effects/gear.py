@@ -16,11 +16,31 @@ def format_angle(x: float, unit: str) -> str:
     return f"{1e6 * x:.3g} µm" if abs(x) < 1e-3 else f"{1e3 * x:.3g} mm"
 
 
+def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int = 2) -> list:
+    """The ``count`` gears (backlash width, spring frequency, damping) whose term best
+    explains the residual with a positive load inertia (a negative one is no load: it only
+    mimics some other mismatch).  The residual's signature picks the hyper-parameters, as a
+    periodogram picks a pitch; the screening and the joint fit then judge them."""
+    from bench.fitting import _gear_term
+    m = ctx.data.mask
+    r = ctx.residual[m]
+    rr = float(r @ r) or 1.0
+    scored = []
+    for g in gears:
+        x = _gear_term(ctx.data.c, *g)[m]
+        xx, xr = float(x @ x), float(x @ r)
+        if xx > 0 and xr > 0:
+            scored.append((xr * xr / xx / rr, g))
+    scored.sort(key=lambda s: -s[0])
+    return [g for _, g in scored[:count]]
+
+
 class GearEffect(Effect):
     load_key = ""
 
     def load_param(self, init) -> Param:
-        return Param(self.load_key, init[self.load_key], log=False)
+        # a load inertia is positive; it starts at zero strength, so it is bounded, not logged
+        return Param(self.load_key, max(init[self.load_key], 0.0), log=False, lo=0.0)
 
     def fd_step(self, key, ctx):
         if key == self.load_key:

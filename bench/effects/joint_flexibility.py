@@ -16,7 +16,7 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import Context, check_known, explained_text, number
-from bench.effects.gear import GearEffect
+from bench.effects.gear import GearEffect, best_gears
 from bench.errors import InputError
 from bench.fitting import Param
 
@@ -34,8 +34,9 @@ class JointFlexibility(GearEffect):
         lo, hi = max(2.0 * c.frequency, 1.0), 1.2 * c.cutoff
         if hi <= lo:
             return []
-        return [{"flex_frequency": f, "flex_damping": DEFAULT_DAMPING, "flex_load": 0.0}
-                for f in np.geomspace(lo, hi, 10)]
+        grid = [(0.0, f, DEFAULT_DAMPING) for f in np.geomspace(lo, hi, 14)]
+        return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0}
+                for _, f, z in best_gears(ctx, grid)]
 
     def params(self, init):
         return [Param("flex_frequency", init["flex_frequency"], log=True),
