@@ -16,7 +16,7 @@ The joint's mechanics beyond a rigid body are slots too (zero = rigid, today's p
     FLEX_FREQ   locked-rotor resonance of the gear's spring [Hz] (0: a stiff contact, see below)
     FLEX_DAMP   its damping ratio
     LOAD_FRAC   share of the joint inertia on the load side of the gear
-The coupling (``coupling_accel``, ``load_step``) is written once here: the virtual drives
+The coupling (``coupling``, ``load_step``) is written once here: the virtual drives
 integrate the two-mass joint with it, and the backlash / flexibility effects run the same
 load recursion along the measured motor trajectory.
 """
@@ -41,11 +41,14 @@ SIZE = 22
 # Backlash without a declared flexibility: the teeth meet through a stiff, well damped
 # spring-damper rather than an impact law.  An impact needs event detection inside a step,
 # which the joint's one implicit step does not have; a contact whose locked-rotor frequency
-# lies above every comparison filter (<= 50 Hz, bench.signals.choose_cutoff) and whose
-# damping (0.7) closes the gap without a bounce acts as an inelastic impact in the band the
-# fit sees, and both the virtual joint and the fit use these same numbers.
+# lies above every comparison filter (<= 50 Hz, bench.signals.choose_cutoff) and that is
+# critically damped acts as an inelastic impact in the band the fit sees: the teeth close
+# without a rebound.  The damper acts while the flanks overlap, in both directions (the oil
+# film between them resists parting as it resists closing); clipping it at zero force
+# instead gives a 5-15 % rebound that sets a frictionless load bouncing between the flanks.
+# Both the virtual joint and the fit use these same numbers.
 CONTACT_HZ = 100.0
-CONTACT_DAMPING = 0.7
+CONTACT_DAMPING = 1.0
 
 
 def full(ev) -> np.ndarray:
@@ -114,25 +117,12 @@ def effect_terms(q, v, t, ev):
 
 
 @njit(cache=True)
-def coupling_accel(d, dv, gap, w2, c2):
-    """Coupling torque / M_load for a motor-load offset d = q_m - q_l and rate dv: a spring
-    beyond the half gap, nothing inside it.  With a gap the teeth can only push, so the
-    damper cannot pull them together (the force is clipped at zero)."""
-    if d > gap:
-        a = w2 * (d - gap) + c2 * dv
-        return a if a > 0.0 or gap == 0.0 else 0.0
-    if d < -gap:
-        a = w2 * (d + gap) + c2 * dv
-        return a if a < 0.0 or gap == 0.0 else 0.0
-    return 0.0
-
-
-@njit(cache=True)
 def load_step(ql, vl, qm0, qm1, h, gap, w2, c2):
     """Advance the load over h while the motor moves linearly from qm0 to qm1 (its velocity
     held, as the LuGre kernel holds it).  Implicit midpoint: within one contact regime the
     load equation is linear, so it is solved exactly; the regime is re-read from the
-    solution until it stops changing.  Returns (q_l, v_l) at the end of the step."""
+    solution until it stops changing.  In contact (|q_m - q_l| beyond the half gap) the
+    coupling torque / M_load is w2 (d -+ gap) + c2 (v_m - v_l); inside the gap it is zero.  Returns (q_l, v_l) at the end of the step."""
     vm = (qm1 - qm0) / h
     D0 = 0.5 * (qm0 + qm1) - ql - 0.25 * h * vl     # offset at the midpoint, without v1
     V0 = vm - 0.5 * vl
@@ -151,10 +141,6 @@ def load_step(ql, vl, qm0, qm1, h, gap, w2, c2):
             continue
         rhs = vl + h * (w2 * (D0 - s * gap) + c2 * V0)
         v1 = rhs / (1.0 + 0.25 * h * h * w2 + 0.5 * h * c2)
-        a = (v1 - vl) / h
-        if gap > 0.0 and a * s < 0.0:                 # teeth cannot pull: separating
-            v1 = vl
-            break
     return ql + 0.5 * h * (vl + v1), v1
 
 
