@@ -20,7 +20,7 @@ def injected(texts, key):
 
 
 @pytest.mark.parametrize("effect,joint,seed", [
-    ("backlash", "j1", 5811), ("backlash", "j4", 5812), ("backlash", "rotary", 5813),
+    ("backlash", "j1", 5811), ("backlash", "j4", 5812), ("backlash", "linear", 5813),
     ("joint_flexibility", "j2", 5821), ("joint_flexibility", "j3", 5822),
     ("joint_flexibility", "linear", 5823),
 ])
