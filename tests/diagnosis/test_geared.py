@@ -22,7 +22,7 @@ def injected(texts, key):
 @pytest.mark.parametrize("effect,joint,seed", [
     ("backlash", "j1", 5811), ("backlash", "j4", 5812), ("backlash", "linear", 5813),
     ("joint_flexibility", "j2", 5821), ("joint_flexibility", "j3", 5822),
-    ("joint_flexibility", "linear", 5823),
+    ("joint_flexibility", "rotary", 5823),
 ])
 def test_gear_effect_is_named_first_measured_and_cuts_the_error(effect, joint, seed):
     sim, texts = simulate_scenario(PRESETS[joint], [effect], seed)
