@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from bench import terms
 from bench.effects.base import Context, Effect, number
 from bench.errors import InputError
@@ -16,23 +18,40 @@ def format_angle(x: float, unit: str) -> str:
     return f"{1e6 * x:.3g} µm" if abs(x) < 1e-3 else f"{1e3 * x:.3g} mm"
 
 
-def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int = 2) -> list:
+def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int = 2,
+               dampings: tuple[float, ...] = ()) -> list:
     """The ``count`` gears (backlash width, spring frequency, damping) whose term best
     explains the residual with a positive load inertia (a negative one is no load: it only
     mimics some other mismatch).  The residual's signature picks the hyper-parameters, as a
-    periodogram picks a pitch; the screening and the joint fit then judge them."""
+    periodogram picks a pitch: a coarse geometric grid, then a fine one around each pick
+    (and, for a spring, the damping among ``dampings``); the screening and the joint fit
+    then judge them."""
     from bench.fitting import _gear_term
     m = ctx.data.mask
     r = ctx.residual[m]
     rr = float(r @ r) or 1.0
-    scored = []
-    for g in gears:
+
+    def score(g):
         x = _gear_term(ctx.data.c, *g)[m]
         xx, xr = float(x @ x), float(x @ r)
-        if xx > 0 and xr > 0:
-            scored.append((xr * xr / xx / rr, g))
-    scored.sort(key=lambda s: -s[0])
-    return [g for _, g in scored[:count]]
+        return xr * xr / xx / rr if xx > 0 and xr > 0 else 0.0
+
+    scored = sorted(((score(g), g) for g in gears), key=lambda s: -s[0])
+    picks = [g for sc, g in scored if sc > 0][:count]
+    if len(gears) < 2:
+        return picks
+    # the coarse grid's step, as a ratio (width or frequency: whichever the gear varies)
+    axis = 0 if gears[0][0] > 0 else 1
+    step = gears[1][axis] / gears[0][axis]
+    out = []
+    for g in picks:
+        fine = [tuple(g[i] * (f if i == axis else 1.0) for i in range(3))
+                for f in np.geomspace(1 / step, step, 13)]
+        best = max(fine, key=score)
+        if dampings:
+            best = max([best] + [(best[0], best[1], z) for z in dampings], key=score)
+        out.append(best)
+    return out
 
 
 class GearEffect(Effect):

@@ -36,7 +36,7 @@ class JointFlexibility(GearEffect):
             return []
         grid = [(0.0, f, DEFAULT_DAMPING) for f in np.geomspace(lo, hi, 14)]
         return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0}
-                for _, f, z in best_gears(ctx, grid)]
+                for _, f, z in best_gears(ctx, grid, dampings=(0.02, 0.1, 0.2))]
 
     def params(self, init):
         return [Param("flex_frequency", init["flex_frequency"], log=True),
