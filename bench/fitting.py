@@ -93,9 +93,9 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
     if extra["load_inertia"] and (extra["backlash"] > 0 or extra["flex_frequency"] > 0):
         # a load beyond the gear (encoder on the motor): eq. 5 leaves M_load (qdd_l - qdd_m),
-        # the load driven through the gear by the measured motor trajectory
-        out = out + extra["load_inertia"] * _gear_term(c, extra["backlash"], extra["flex_frequency"],
-                                                       extra["flex_damping"])
+        # the load driven through the gear by the motor's recorded trajectory
+        out = out + extra["load_inertia"] * gear_term(c, extra["backlash"],
+                                                      extra["flex_frequency"], extra["flex_damping"])
     return out
 
 
@@ -122,7 +122,7 @@ def _lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray) 
 _GEAR_CACHE: dict = {}
 
 
-def _gear_term(c: Conditioned, width: float, frequency: float, damping: float) -> np.ndarray:
+def gear_term(c: Conditioned, width: float, frequency: float, damping: float) -> np.ndarray:
     """(qdd_load - qdd_motor) on the grid, per unit load inertia.  Cached: a fit varies
     LuGre far more often than the gear."""
     key = (id(c), width, frequency, damping)

@@ -122,7 +122,8 @@ def load_step(ql, vl, qm0, qm1, h, gap, w2, c2):
     held, as the LuGre kernel holds it).  Implicit midpoint: within one contact regime the
     load equation is linear, so it is solved exactly; the regime is re-read from the
     solution until it stops changing.  In contact (|q_m - q_l| beyond the half gap) the
-    coupling torque / M_load is w2 (d -+ gap) + c2 (v_m - v_l); inside the gap it is zero.  Returns (q_l, v_l) at the end of the step."""
+    coupling torque / M_load is w2 (d -+ gap) + c2 (v_m - v_l); inside the gap it is zero.
+    Returns (q_l, v_l) at the end of the step."""
     vm = (qm1 - qm0) / h
     D0 = 0.5 * (qm0 + qm1) - ql - 0.25 * h * vl     # offset at the midpoint, without v1
     V0 = vm - 0.5 * vl

@@ -14,9 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from bench import terms
-from bench.effects.base import Context, Effect, check_known, explained_text, number
+from bench.effects.base import Context, check_known, explained_text, number
 from bench.effects.gear import GearEffect, best_gears, format_angle
 from bench.errors import InputError
+from bench.fitting import Param
 
 
 class Backlash(GearEffect):
@@ -32,7 +33,6 @@ class Backlash(GearEffect):
         return [{"bl_width": w, "bl_load": 0.0} for w, _, _ in best_gears(ctx, grid)]
 
     def params(self, init):
-        from bench.fitting import Param
         return [Param("bl_width", init["bl_width"], log=True), self.load_param(init)]
 
     def apply(self, values, extra, ev):

@@ -9,7 +9,7 @@ import numpy as np
 from bench import terms
 from bench.effects.base import Context, Effect, number
 from bench.errors import InputError
-from bench.fitting import Param
+from bench.fitting import Param, gear_term
 
 
 def format_angle(x: float, unit: str) -> str:
@@ -26,13 +26,12 @@ def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int
     periodogram picks a pitch: a coarse geometric grid, then a fine one around each pick
     (and, for a spring, the damping among ``dampings``); the screening and the joint fit
     then judge them."""
-    from bench.fitting import _gear_term
     m = ctx.data.mask
     r = ctx.residual[m]
     rr = float(r @ r) or 1.0
 
     def score(g):
-        x = _gear_term(ctx.data.c, *g)[m]
+        x = gear_term(ctx.data.c, *g)[m]
         xx, xr = float(x @ x), float(x @ r)
         return xr * xr / xx / rr if xx > 0 and xr > 0 else 0.0
 

@@ -8,10 +8,8 @@ from bench import terms
 from bench.effects.inject import parse_injections
 from bench.fitting import predict
 from bench.identify import identify
-from bench.records import Record
 from bench.signals import second_difference
 from virtual_drives.joint import Gear, VirtualJoint, simulate_record, sine_torque
-from virtual_drives.physics import simulate_two_mass
 from virtual_drives.presets import PRESETS
 
 
