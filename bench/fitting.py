@@ -138,11 +138,15 @@ def gear_term(c: Conditioned, width: float, frequency: float, damping: float) ->
     # velocity, integrated): fed the raw encoder, the stiff contact turns quantisation steps
     # into load jitter that parts the flanks and biases the width (+10 % on j3 and the rotary
     # motor, tuning seeds); the motor's own qdd stays the measured one, as in eq. 5
-    qm = np.empty_like(c.q_full)
-    qm[0] = c.q_full[0]
-    qm[1:] = c.q_full[0] + np.cumsum(c.v_mid) * c.dt
-    ql = terms.load_trajectory(qm, c.dt, n_sub, gap, w2, c2)
-    term = c.lowpass(second_difference(ql - qm, c.dt)) + c.lowpass(second_difference(qm - c.q_full, c.dt))
+    rel = np.empty_like(c.q_full)      # qdd_load - qdd_motor, segment by segment (a gap
+    for (a, b), (ia, ib) in zip(c.segments, c.interval_segments):   # restarts the gear)
+        q = c.q_full[a:b]
+        qm = np.empty_like(q)
+        qm[0] = q[0]
+        qm[1:] = q[0] + np.cumsum(c.v_mid[ia:ib]) * c.dt
+        ql = terms.load_trajectory(qm, c.dt, n_sub, gap, w2, c2)
+        rel[a:b] = second_difference(ql - qm, c.dt) + second_difference(qm - q, c.dt)
+    term = c.lowpass(rel)
     if len(_GEAR_CACHE) > 8:
         _GEAR_CACHE.clear()
     _GEAR_CACHE[key] = (c, term)
