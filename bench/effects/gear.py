@@ -56,6 +56,11 @@ def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int
 class GearEffect(Effect):
     load_key = ""
 
+    def applicable(self, ctx: Context) -> bool:
+        # the term is what eq. 5's M qdd leaves behind: a record of friction torque
+        # (inertia 0, nothing subtracted) has no such term
+        return ctx.inertia > 0
+
     def load_param(self, init) -> Param:
         # a load inertia is positive; it starts at zero strength, so it is bounded, not logged
         return Param(self.load_key, max(init[self.load_key], 0.0), log=False, lo=0.0)
