@@ -1,5 +1,5 @@
 """Hidden physics in the emulated drives: an effect injected into a virtual joint
-(``effects`` in its joint dict, every library effect) reaches what the host records through
+(``effects`` in its joint dict) reaches what the host records through
 the real CANopen and serial stacks, and serial records carry measured torque noise."""
 from __future__ import annotations
 
@@ -12,15 +12,14 @@ from bench.effects.inject import parse_injections
 from virtual_drives.joint import VirtualJoint
 from virtual_drives.presets import preset
 
-EFFECTS = ["backlash:width=0.003", "torque_lag:delay=0.0025", "inertia_error:factor=1.25"]
+EFFECTS = ["backlash:width=0.003", "torque_lag:delay=0.0025", "cogging:amplitude=0.02,pitch=0.3"]
 
 
 def reference(joint: dict, effects: list[str]) -> tuple[VirtualJoint, float]:
-    """The joint the drive should be: true inertia = declared / factor, the gear in its
-    terms vector; returns it and the torque lag."""
+    """The joint the drive should be: the gear and the cogging in its terms vector;
+    returns it and the torque lag."""
     spec = preset(joint["preset"]).with_(gravity=tuple(joint["gravity"]))
-    ev, factor, _, lag = parse_injections(effects, spec)
-    spec = spec.with_(inertia=spec.inertia / factor)
+    ev, _, _, lag = parse_injections(effects, spec)
     return VirtualJoint(spec, dt=joint["control_period"], extra=ev, q0=joint["hold"]), lag
 
 
