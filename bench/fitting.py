@@ -17,7 +17,7 @@ from scipy.optimize import least_squares
 
 from bench import terms
 from bench.lugre import LuGreParams, friction_trace, interval_to_samples
-from bench.signals import Conditioned, effective_sample_fraction
+from bench.signals import Conditioned, effective_sample_fraction, second_difference
 
 LUGRE_KEYS = ("Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2")
 
@@ -74,7 +74,8 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     lugre = {k: values[k] for k in LUGRE_KEYS}
     lugre["delta"] = values.get("delta", 1.0)
     ev = terms.empty()
-    extra: dict = {"inertia_error": 0.0, "torque_lag": 0.0}
+    extra: dict = {"inertia_error": 0.0, "torque_lag": 0.0, "load_inertia": 0.0,
+                   "backlash": 0.0, "flex_frequency": 0.0, "flex_damping": 0.0}
     for apply in appliers:
         apply(values, extra, ev)
     c = data.c
@@ -94,6 +95,11 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # the joint felt tau(t - lag), the record says tau(t): the estimate tau - M qdd carries
         # the difference (the filters are linear and time-invariant, so delay the filtered tau)
         out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
+    if extra["load_inertia"] and (extra["backlash"] > 0 or extra["flex_frequency"] > 0):
+        # a load beyond the gear (encoder on the motor): eq. 5 leaves M_load (qdd_l - qdd_m),
+        # the load driven through the gear by the motor's recorded trajectory
+        out = out + extra["load_inertia"] * gear_term(c, extra["backlash"],
+                                                      extra["flex_frequency"], extra["flex_damping"])
     return out
 
 
@@ -115,6 +121,40 @@ def _lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray) 
         F, _ = friction_trace(c.v_mid[a:b], c.dt, z0, *args, level[a:b], visc[a:b])
         parts.append(interval_to_samples(F) if b > a else np.zeros(1))
     return np.concatenate(parts)
+
+
+_GEAR_CACHE: dict = {}
+
+
+def gear_term(c: Conditioned, width: float, frequency: float, damping: float) -> np.ndarray:
+    """(qdd_load - qdd_motor) on the grid, per unit load inertia.  Cached: a fit varies
+    LuGre far more often than the gear."""
+    key = (id(c), width, frequency, damping)
+    hit = _GEAR_CACHE.get(key)
+    if hit is not None and hit[0] is c:
+        return hit[1]
+    ev = terms.empty()
+    ev[terms.BACKLASH], ev[terms.FLEX_FREQ], ev[terms.FLEX_DAMP] = width, frequency, damping
+    gap, w2, c2 = terms.coupling(ev)
+    # the load's step resolves the locked-rotor mode (h w <= 0.25), as the joint's does
+    n_sub = int(min(64, max(1, math.ceil(c.dt * math.sqrt(w2) / 0.25))))
+    # the gear is driven by the motor as the friction model sees it (the lightly smoothed
+    # velocity, integrated): fed the raw encoder, the stiff contact turns quantisation steps
+    # into load jitter that parts the flanks and biases the width (+10 % on j3 and the rotary
+    # motor, tuning seeds); the motor's own qdd stays the measured one, as in eq. 5
+    rel = np.empty_like(c.q_full)      # qdd_load - qdd_motor, segment by segment (a gap
+    for (a, b), (ia, ib) in zip(c.segments, c.interval_segments):   # restarts the gear)
+        q = c.q_full[a:b]
+        qm = np.empty_like(q)
+        qm[0] = q[0]
+        qm[1:] = q[0] + np.cumsum(c.v_mid[ia:ib]) * c.dt
+        ql = terms.load_trajectory(qm, c.dt, n_sub, gap, w2, c2)
+        rel[a:b] = second_difference(ql - qm, c.dt) + second_difference(qm - q, c.dt)
+    term = c.lowpass(rel)
+    if len(_GEAR_CACHE) > 8:
+        _GEAR_CACHE.clear()
+    _GEAR_CACHE[key] = (c, term)
+    return term
 
 
 @dataclass

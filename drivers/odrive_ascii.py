@@ -1,7 +1,9 @@
 """An ODrive axis over its ASCII protocol on a serial port (pyserial).
 
-One cycle is one pipelined write, ``c <axis> <torque>``, ``f <axis>``, ``r axis<n>.error``,
-and two reply lines: "<pos> <vel>" (turns, turns/s) and the axis error bits.  ``c`` feeds
+One cycle is one pipelined write, ``c <axis> <torque>``, ``f <axis>``,
+``r axis<n>.motor.torque_estimate``, ``r axis<n>.error``, and three reply lines: "<pos> <vel>"
+(turns, turns/s), the measured torque (the drive's current times its torque constant, in
+joint units) and the axis error bits.  ``c`` feeds
 the ODrive watchdog (``axis<n>.config.watchdog_timeout``), so the watchdog is fed on every
 cycle; a host that stops cycling leaves the axis to its watchdog, which idles the motor.
 
@@ -11,7 +13,8 @@ numbers / one integer); with ``checksum`` on, each line also carries the GCode c
 resynchronises (drains the line until it is quiet) and reads again once ("f" and "r" only:
 re-sending "c" would advance a lock-step drive twice) before failing with
 ``ProtocolViolation``.
-``f`` has no torque field: ``Sample.torque`` is the torque commanded while enabled.
+``f`` has no torque field: ``Sample.torque`` is the drive's torque estimate, as a CiA 402
+drive's 0x6077 is, so a record carries the torque the drive measured, noise included.
 
 E-stop from another thread: ``torque_off`` writes ``v <axis> 0`` (no reply, so it takes no
 reply slot) under ``write_lock``, held only for a write; from then on every ``c`` goes out
@@ -214,16 +217,17 @@ class OdriveAsciiDrive:
         try:
             tau = self.guard.command(torque) if enabled else 0.0
             a = self.axis
-            read = [f"f {a}", f"r axis{a}.error"]
+            read = [f"f {a}", f"r axis{a}.motor.torque_estimate", f"r axis{a}.error"]
+            shapes = ["ff", "f", "i"]
             self.consumed = self.pacer.next_tick(self.consumed)
             self.ticks += 1
             try:
-                (pos, vel), (err,) = self._exchange([f"c {a} {tau!r}"] + read, ["ff", "i"])
+                (pos, vel), (meas,), (err,) = self._exchange([f"c {a} {tau!r}"] + read, shapes)
             except ProtocolViolation:
                 self._resync()                # one retry after garbage, without "c"
-                (pos, vel), (err,) = self._exchange(read, ["ff", "i"])
+                (pos, vel), (meas,), (err,) = self._exchange(read, shapes)
             t = self.ticks * self.dt if self.lockstep else time.monotonic() - self.t0
-            s = Sample(t=t, position=pos / self.tpu, velocity=vel / self.tpu, torque=tau,
+            s = Sample(t=t, position=pos / self.tpu, velocity=vel / self.tpu, torque=meas,
                        state=DriveState.FAULT if err else self.want, host_time=time.monotonic())
             return self._check(s, err) if enabled else s
         except DriveError as exc:

@@ -2,7 +2,8 @@
 
     python tools/tune_diagnosis.py [--seeds 3] [--joints linear,j1] [--effects cogging,...]
 Prints, per joint and effect, whether the hidden effect was ranked first and significant,
-the held-out error reduction, and false positives on no-effect records."""
+the held-out error reduction, false positives on no-effect records and, for the gear
+effects, the found backlash width / resonance frequency over the injected one."""
 from __future__ import annotations
 
 import argparse
@@ -13,6 +14,17 @@ from bench.analysis import analyze_record
 from bench.effects import EFFECTS
 from virtual_drives.presets import PRESETS
 from virtual_drives.scenarios import simulate_scenario
+
+# hyper-parameter read back: effect -> (fitted name, injected key)
+MEASURED = {"backlash": ("bl_width", "width"), "joint_flexibility": ("flex_frequency", "frequency")}
+
+
+def measured(eff: str, texts: list[str], values: dict) -> str:
+    if eff not in MEASURED or MEASURED[eff][0] not in values:
+        return ""
+    name, key = MEASURED[eff]
+    true = float(texts[0].split(f"{key}=")[1].split(",")[0])
+    return f" {key} found/true={values[name] / true:.3f}"
 
 
 def main():
@@ -42,7 +54,8 @@ def main():
                 first = doc["diagnosis"][0]
                 fails += not ok
                 print(f"{'ok  ' if ok else 'FAIL'} {joint:6s} {eff:28s} seed {seed} {dt:5.1f}s added={added} "
-                      f"reduction={red:.0%} top={first['effect']}({'sig' if first['significant'] else 'ns'}) {texts}",
+                      f"reduction={red:.0%} top={first['effect']}({'sig' if first['significant'] else 'ns'})"
+                      f"{measured(eff, texts, doc['final']['parameters'])} {texts}",
                       flush=True)
     print("failures:", fails)
 

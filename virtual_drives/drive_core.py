@@ -44,6 +44,12 @@ class DriveCore:
         truth = joint_truth(joint)
         self.vj = VirtualJoint(truth.spec, dt=self.dt, seed=seed, extra=truth.extra,
                                q0=joint.get("q0", joint["hold"]))
+        # torque_lag: the current loop delays what the joint feels; the drive still reports
+        # its current reference (the command), so the lag stays hidden in the record
+        self.lag = truth.torque_lag
+        k = int(math.floor(self.lag / self.dt))
+        self._lag_k, self._lag_frac = k, self.lag / self.dt - k
+        self._line = [0.0] * (k + 2)
         self.vj.advance(0.0, periods=0)   # load the compiled kernel now, not on the first SYNC
         self.lock = threading.RLock()
         self.state = DriveState.DISABLED
@@ -169,13 +175,28 @@ class DriveCore:
             return min(max(tau, -self.max_torque), self.max_torque)
         return 0.0
 
+    def _felt(self, tau: float) -> float:
+        """The torque the joint feels over this period: the command ``lag`` late, averaged
+        over the period (held commands, delayed).  Power off cuts the current at once."""
+        line = self._line
+        if not self.powered:
+            line[:] = [0.0] * len(line)
+            return tau
+        line.pop(0)
+        line.append(tau)
+        k = self._lag_k
+        return (1.0 - self._lag_frac) * line[-1 - k] + self._lag_frac * line[-2 - k]
+
     def _one_period(self) -> None:
         tau = self._torque()
         brake = self.brake and not self.powered
         if brake:
             s = self.vj.state
-            self.vj.state = replace(s, t=s.t + self.dt, v=0.0)
+            self.vj.state = replace(s, t=s.t + self.dt, v=0.0, v_load=0.0)
             self.vj.applied_torque = 0.0
+        elif self.lag > 0:
+            self.vj.advance(self._felt(tau))
+            self.vj.applied_torque = tau
         else:
             self.vj.advance(tau)
         self.applied = tau
@@ -202,6 +223,11 @@ class DriveCore:
                 q += self.glitch / self.joint["counts_per_unit"]
             tau = self.vj.measured_torque() if self.powered else 0.0
             return self.vj.state.t, q, self.vj.measured_velocity(), tau
+
+    def measured_torque(self) -> float:
+        """The torque sensor alone (the drive's current reference plus noise; 0 unpowered)."""
+        with self.lock:
+            return self.vj.measured_torque() if self.powered else 0.0
 
     def snapshot(self) -> dict:
         with self.lock:

@@ -83,6 +83,7 @@ class Emulators:
             if adapter is not None:       # hidden physics stays on the drive side
                 j.pop("extra", None)
                 j.pop("physics", None)
+                j.pop("effects", None)
             self.joints.append(j)
         self.ticker.start()
 

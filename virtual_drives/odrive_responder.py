@@ -117,6 +117,8 @@ class OdriveResponder:
             return core.vj.measured_position() * self.tpu
         if p == "encoder.vel_estimate":
             return core.vj.state.v * self.tpu
+        if p == "motor.torque_estimate":       # current x torque constant, with sensor noise
+            return core.measured_torque()
         return None
 
     def _write_prop(self, name: str, value: str) -> bool:

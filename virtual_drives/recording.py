@@ -34,8 +34,8 @@ from bench.errors import InputError
 from bench.lugre import LuGreParams, interval_to_samples
 from bench.records import Record
 from bench.validate import MAX_RATE, MAX_SAMPLES, in_range
-from virtual_drives.joint import JointSpec, lagged, quantise, sine_torque
-from virtual_drives.physics import simulate, substeps_for
+from virtual_drives.joint import Gear, JointSpec, lagged, quantise, sine_torque
+from virtual_drives.physics import simulate, simulate_two_mass, substeps_for
 
 EXCITATIONS = ("sine", "two-tone", "pd")
 OUTPUTS = ("torque", "friction")
@@ -290,12 +290,15 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     t = np.arange(n) * dt
     f = spec.friction
     M = spec.inertia
-    ev = terms.empty() if extra is None else np.array(extra, dtype=float)
+    ev = terms.empty() if extra is None else terms.full(extra)
     n_sub = substeps_for(dt, M, f.sigma0, f.sigma1, f.sigma2)
     dist = process_noise(n, dt, rec.process_noise, rec.process_noise_tau, rec.process_noise_colour, rng)
     res = spec.encoder_resolution if rec.encoder_resolution is None else rec.encoder_resolution
     q_ref = None
     if rec.excitation == "pd":
+        if terms.two_mass(ev):
+            raise InputError("a closed-loop (pd) record of a geared joint (backlash, joint_flexibility) "
+                             "is not emulated yet; use an open-loop excitation")
         comps = reference_components(spec, rec)
         q_ref, v_ref = pd_reference(comps, centred(spec), t)
         kp, kd = pd_gains(spec, rec, comps)
@@ -305,7 +308,13 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     else:
         cmd = _open_loop_torque(spec, rec, t)
         felt = lagged(t, cmd, torque_lag) + dist
-        q, v, z, q_end, v_end, _ = simulate(felt, dt, n_sub, M, f.vector(), ev, centred(spec), 0.0, 0.0, 0.0)
+        gear = Gear.of(spec, ev, dt)
+        if gear is None:
+            q, v, z, q_end, v_end, _ = simulate(felt, dt, n_sub, M, f.vector(), ev, centred(spec), 0.0, 0.0, 0.0)
+        else:   # a geared joint (backlash, a gear spring): the encoder reads the motor
+            q, v, z, _, _, q_end, v_end, *_ = simulate_two_mass(
+                felt, dt, gear.n_sub, gear.M_motor, gear.M_load, f.vector(), ev, gear.gap, gear.w2,
+                gear.c2, centred(spec), 0.0, 0.0, centred(spec), 0.0, 0.0)
     declared = M if declared_inertia is None else declared_inertia
     # tau - M q'' per period from the true states (the integrator's momentum balance makes
     # this the exact mean friction over the period), then at the instants between periods

@@ -62,10 +62,29 @@ def _lag(spec, travel, T, rng):
     return f"torque_lag:delay={rng.uniform(0.002, 0.008):.5f}"
 
 
+def _backlash(spec, travel, T, rng):
+    # geared joints: spur/planetary trains of a heavy arm wear to 3-15 arcmin (1-4 mrad) at
+    # the output, the paper's "considerable mismatches"; direct drives: the play of a
+    # coupling to the payload, tens of micrometres on a stage, a few mrad on a rotary joint
+    if spec.joint_type == "prismatic":
+        width = rng.uniform(40e-6, 120e-6)
+    else:
+        width = rng.uniform(1.0e-3, 4.0e-3)
+    return f"backlash:width={width:.6g}"
+
+
+def _flexibility(spec, travel, T, rng):
+    # locked-rotor resonances: 3-8 Hz for a heavy geared arm (long links, large reduction),
+    # 10-30 Hz for a direct drive with a compliant coupling or tool; lightly damped
+    f = rng.uniform(3.0, 8.0) if spec.gear_ratio > 1 else rng.uniform(10.0, 30.0)
+    return f"joint_flexibility:frequency={f:.4g},damping={rng.uniform(0.03, 0.12):.4f}"
+
+
 GENERATORS = {
     "inertia_error": _inertia, "direction_asymmetry": _asym, "cogging": _cogging,
     "position_dependent_friction": _posfric, "gravity": _gravity, "torque_offset": _offset,
     "thermal_drift": _thermal, "stribeck_shape": _stribeck, "torque_lag": _lag,
+    "backlash": _backlash, "joint_flexibility": _flexibility,
 }
 
 

@@ -95,9 +95,7 @@ def check_physics(physics, joint: dict, where: str) -> tuple[dict, list[str]]:
     try:
         params = LuGreParams(**friction)
         spec = _spec(out, {**joint, "id": joint.get("id", "joint")}, params)
-        if _injected(out["effects"], spec)[3] > 0:
-            # the emulated drives apply each command in its own period (no delay line yet)
-            raise InputError("torque_lag is not emulated by the virtual drives yet")
+        _injected(out["effects"], spec)      # torque_lag: the drive core's delay line
     except InputError as e:
         raise InputError(f"{where}: physics.effects: {e}") from None
     pw = params.passivity_warning()

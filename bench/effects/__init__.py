@@ -5,11 +5,13 @@ here; the diagnosis, ``bench analyze --add`` and ``bench simulate --effect`` pic
 """
 from __future__ import annotations
 
+from bench.effects.backlash import Backlash
 from bench.effects.base import Context, Effect
 from bench.effects.cogging import Cogging
 from bench.effects.direction_asymmetry import DirectionAsymmetry
 from bench.effects.gravity import Gravity
 from bench.effects.inertia_error import InertiaError
+from bench.effects.joint_flexibility import JointFlexibility
 from bench.effects.position_dependent_friction import PositionDependentFriction
 from bench.effects.stribeck_shape import StribeckShape
 from bench.effects.thermal_drift import ThermalDrift
@@ -19,7 +21,8 @@ from bench.errors import InputError
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
     InertiaError(), DirectionAsymmetry(), Cogging(), PositionDependentFriction(),
-    Gravity(), TorqueOffset(), ThermalDrift(), StribeckShape(), TorqueLag(),
+    Gravity(), TorqueOffset(), ThermalDrift(), StribeckShape(), TorqueLag(), Backlash(),
+    JointFlexibility(),
 )}
 
 

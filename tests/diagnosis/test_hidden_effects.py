@@ -113,7 +113,7 @@ def test_evidence_names_the_cogging_pitch():
 def test_unknown_effect_lists_the_known_ones():
     sim, _ = simulate_scenario(PRESETS["j3"], [], 5403)
     with pytest.raises(InputError) as e:
-        analyze_record(sim.record, add=["backlash"])
+        analyze_record(sim.record, add=["hysteresis"])
     for name in EFFECTS:
         assert name in str(e.value)
 

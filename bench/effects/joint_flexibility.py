@@ -1,0 +1,75 @@
+"""joint_flexibility: a compliant gear (harmonic drive, long shaft, belt) between motor and
+load: a two-mass joint with locked-rotor resonance ``frequency`` and damping ratio
+``damping``.  Friction transitions (breakaway, reversals) ring the resonance.
+
+With the encoder on the motor, eq. 5 leaves M_load (qdd_load - qdd_motor): the load's
+motion is the gear spring driven by the measured motor trajectory
+(``bench.terms.load_step``, the virtual joint's own).  The load inertia is linear in the
+term (screened); the frequency is searched on a grid up to the comparison filter's cutoff
+(a resonance above it is filtered out of what the fit sees), damping and frequency are then
+refined by the joint fit."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bench import terms
+from bench.effects.base import Context, check_known, explained_text, number
+from bench.effects.gear import GearEffect, best_gears
+from bench.errors import InputError
+from bench.fitting import Param
+
+DEFAULT_DAMPING = 0.05    # lightly damped: harmonic drives and steel shafts, 0.02-0.1
+
+
+class JointFlexibility(GearEffect):
+    name = "joint_flexibility"
+    summary = "two-mass joint: a gear spring between motor and load"
+    hyper = ("flex_frequency",)
+    load_key = "flex_load"
+
+    def variants(self, ctx: Context) -> list[dict]:
+        c = ctx.data.c
+        lo, hi = max(2.0 * c.frequency, 1.0), 1.2 * c.cutoff
+        if hi <= lo:
+            return []
+        grid = [(0.0, f, DEFAULT_DAMPING) for f in np.geomspace(lo, hi, 14)]
+        return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0}
+                for _, f, z in best_gears(ctx, grid, dampings=(0.02, 0.1, 0.2))]
+
+    def params(self, init):
+        return [Param("flex_frequency", init["flex_frequency"], log=True),
+                Param("flex_damping", init["flex_damping"], log=True,
+                      lo=math.log(0.005), hi=math.log(1.0)),
+                self.load_param(init)]
+
+    def fd_step(self, key, ctx):
+        if key == "flex_damping":
+            return 0.01
+        return super().fd_step(key, ctx)
+
+    def apply(self, values, extra, ev):
+        extra["flex_frequency"] = values["flex_frequency"]
+        extra["flex_damping"] = values["flex_damping"]
+        extra["load_inertia"] += values["flex_load"]
+
+    def evidence(self, values, explained, ctx):
+        f, zeta = values["flex_frequency"], values["flex_damping"]
+        return (f"the joint is compliant: a resonance at {f:.3g} Hz (locked rotor) with damping "
+                f"ratio {zeta:.2g} rings at friction transitions ({self.load_share(values, ctx)}); "
+                f"keep the position loop's bandwidth well below it (about {f / 3:.2g} Hz) or add "
+                f"a notch / load-side feedback; {explained_text(explained)}")
+
+    def inject(self, kw, ev, spec):
+        check_known(kw, ("frequency", "damping", "load_fraction"), self.name)
+        f = number(kw, "frequency", self.name)
+        zeta = number(kw, "damping", self.name, DEFAULT_DAMPING)
+        if not f > 0:
+            raise InputError("effect joint_flexibility: frequency must be positive [Hz]")
+        if not 0 < zeta < 2:
+            raise InputError("effect joint_flexibility: damping ratio must lie in (0, 2)")
+        ev[terms.FLEX_FREQ] = f
+        ev[terms.FLEX_DAMP] = zeta
+        self.inject_load(kw, ev)
+        return {}
