@@ -22,6 +22,7 @@ from bench.fitting import Param
 
 class Backlash(GearEffect):
     name = "backlash"
+    signals = ("travel_since_reversal",)
     summary = "dead zone in the gear between motor and load"
     hyper = ("bl_width",)
     load_key = "bl_load"

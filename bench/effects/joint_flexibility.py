@@ -25,6 +25,7 @@ DEFAULT_DAMPING = 0.05    # lightly damped: harmonic drives and steel shafts, 0.
 
 class JointFlexibility(GearEffect):
     name = "joint_flexibility"
+    signals = ("travel_since_reversal",)
     summary = "two-mass joint: a gear spring between motor and load"
     hyper = ("flex_frequency",)
     load_key = "flex_load"
