@@ -136,16 +136,17 @@ def reversals(v: np.ndarray, threshold: float) -> np.ndarray:
 def motion_frequency(t: np.ndarray, q: np.ndarray) -> tuple[float, int]:
     """(reversals per second / 2, number of reversals) of the motion: the fundamental of a
     back-and-forth motion, whatever drives it (a torque sine, two tones, a closed loop, a
-    log of ordinary motion).  The velocity is a lightly smoothed difference of the encoder;
-    a reversal needs 5 % of the top speed in each direction."""
+    log of ordinary motion).  The velocity is a smoothed difference of the encoder (20 ms:
+    well below the excitations friction is identified with, well above a coarse encoder's
+    count-to-count chatter); a reversal needs 10 % of the top speed in each direction."""
     dt = (t[-1] - t[0]) / (len(t) - 1)
-    w = max(1, int(round(0.005 / dt)))      # 5 ms of smoothing: well below any excitation
+    w = max(1, int(round(0.02 / dt)))
     qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
     v = np.diff(qs) / dt
     vmax = float(np.percentile(np.abs(v), 99.5)) if len(v) else 0.0
     if vmax <= 0:
         return 0.0, 0
-    n = len(reversals(v, 0.05 * vmax))
+    n = len(reversals(v, 0.1 * vmax))
     return n / (2.0 * (t[-1] - t[0])), n
 
 
