@@ -12,12 +12,14 @@ a disturbance torque the record never contained (process noise), and a correlati
 mistakes coloured noise for structure; both are still reported, but the verdict rests on
 *predictability* (``bench.predictability``): a residual is structured when a learner on the
 joint's state signals predicts it on held-out motion segments clearly better than chance, and
-the predicted part is large enough to matter (``MIN_SIZE`` of the Coulomb level).  Measured on
-tuning seeds (1000-1999; tools/tune_noise_floor.py): clean joints under white and coloured
-process noise, torque-reading noise and quantisation predicted <= 0.09 of their residual, the
-largest predictable part (the rotary motor's presliding, a discretisation effect) was 0.5 % of
-Fc; library effects before they were added: 0.76-0.91 predicted; a saturating torque constant
-after the diagnosis: see the README table.
+the predicted part is large enough to matter (``MIN_SIZE`` of the Coulomb level) and clearly
+more than a perfect model leaves on the same record (``bench.perfect_model``; a coarse
+encoder's staircase is deterministic too).  Measured on tuning seeds (1000-1999;
+tools/tune_noise_floor.py): clean joints under white and coloured process noise, reading noise,
+2 kHz, closed loop and two tones predicted at most 0.2 of their residual, and that only on the
+rotary motor and the linear stage, where it was at most 0.7 % of Fc (presliding through the
+sampling and filters); library effects before they were added: 0.76-0.91; a saturating torque
+constant left after the diagnosis: 0.57-0.88, 4-5 % of Fc.
 """
 from __future__ import annotations
 
@@ -27,8 +29,8 @@ from bench.predictability import MIN_PREDICTED, T_CRIT
 from bench.signals import Conditioned, held_torque, second_difference
 
 MIN_SIZE = 0.01           # predictable residual rms / Fc below which nothing is worth naming
-# predictable residual rms / the perfect-model replay's residual rms: the replay of a clean
-# coarse-encoder record left 1.2-1.4x what the record itself had predictable (tuning seeds)
+# predictable residual rms / the perfect-model replay's residual rms: clean coarse-encoder
+# records had 0.5-0.85x their replay's as a predictable part (tuning seeds)
 ABOVE_REPLAY = 2.0
 CONCENTRATED = 2.0        # a regime holding this many times its share of time in residual energy
 FOLLOWS = 0.3             # |correlation| that counts as following a signal
