@@ -184,12 +184,14 @@ def _contenders(screens: list[Screen], limit: int = 3) -> list[Screen]:
 # coarse encoder's staircase at every reversal), not physics.  4 (2x in rms): on tuning seeds a
 # position series "explained" 0.5 % of Fc on j1 with a coarse encoder, 0.3 % on its replay.
 ARTIFACT_RATIO = 4.0
-# An effect's fitted term must be at least this rms, relative to Fc, to be named: below it nothing is
-# worth a technician's time (the verdict's MIN_SIZE says the same of what is left).  On tuning
-# seeds, false effects under users' conditions removed 0.1-0.5 % of Fc, the smallest library
-# effect drawn by virtual_drives.scenarios removes ~2 % (a Stribeck exponent on a shallow dip
-# can remove far less: it is then not named, and nothing is left to explain either).
-MIN_EFFECT = 0.007
+# An effect's fitted term must reach this, relative to Fc, to be named (its 99th percentile:
+# backlash is short spikes at the reversals, a position series a smooth ripple): below it
+# nothing is worth a technician's time, as the verdict's MIN_SIZE says of what is left.  On
+# tuning seeds, false effects under users' conditions (a position series on a coarse encoder's
+# staircase, a Stribeck exponent on a friction log) peaked at 0.1-0.7 % of Fc; 1 mrad of
+# backlash on j2 peaks well above 1 % while its rms is 0.7 %.  A Stribeck exponent on a shallow
+# dip can stay below: it is then not named, and nothing is left to explain either.
+MIN_EFFECT = 0.01
 
 
 class _Replay:

@@ -63,7 +63,7 @@ class Screen:
     t_stat: float
     score: float
     significant: bool
-    size: float = 0.0           # rms of the effect's fitted term (torque units)
+    size: float = 0.0           # the effect's fitted term at its largest (99th percentile of |term|)
 
 
 class CrossValidation:
@@ -195,7 +195,7 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         s = Screen(effect.name, init, beta, mse_before, mse_after, explained, across, t, score,
                    explained >= MIN_EXPLAINED and t >= T_CRIT
                    and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test),
-                   size=float(np.sqrt(np.mean(term * term))))
+                   size=float(np.percentile(np.abs(term), 99)))
         if best is None or s.score < best.score:
             best = s
     return best
