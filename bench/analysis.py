@@ -191,9 +191,12 @@ def _diagnose(ident: Identification, rec: Record, add):
     if add:
         return diag
 
+    floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
+
     def leftover(residual):
         p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)
-        if not structured(p, data.coulomb, diag.replay_rms):
+        above = diag.final_rms / floor if floor > 0 else None
+        if not structured(p, data.coulomb, diag.replay_rms, above):
             return [], 0.0
         return p["relies_on"], p["structured_rms"]
     return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)

@@ -33,6 +33,11 @@ MIN_SIZE = 0.01           # predictable residual rms / Fc below which nothing is
 # joints on tuning seeds: at most 0.54 predicted (the rotary motor, 0.5 % of Fc: its fit trades
 # alpha against Fc); a 5 % torque-constant drop on j1: 0.92 predicted at 0.7 % of Fc.
 MOSTLY_PREDICTED, MIN_SIZE_MOSTLY = 0.8, 0.003
+# ...or when the held-out error is well above the measurement-noise floor.  That floor cannot
+# see process noise, but a residual that is also predicted from the state is not process noise:
+# records the library explained ended at <= 1.39x (issue 3's sweep), a 15 % torque-constant
+# drop on the rotary motor, three library effects absorbing most of it, stays above.
+ABOVE_FLOOR = 1.6
 # predictable residual rms / the perfect-model replay's residual rms: clean coarse-encoder
 # records had 0.5-0.85x their replay's as a predictable part (tuning seeds)
 ABOVE_REPLAY = 2.0
@@ -87,11 +92,13 @@ def noise_floor(c: Conditioned, tau: np.ndarray, q: np.ndarray, inertia: float,
     return float(np.sqrt(np.mean(n * n)))
 
 
-def structured(p: dict, friction_level: float, replay_rms: float = 0.0) -> bool:
+def structured(p: dict, friction_level: float, replay_rms: float = 0.0,
+               above_floor: float | None = None) -> bool:
     """Predicted clearly better than chance on held-out segments, large enough to matter, and
     clearly more than a perfect model leaves on this record (``bench.perfect_model``)."""
     size = p["structured_rms"] / friction_level if friction_level > 0 else float("inf")
-    big = size >= MIN_SIZE or (p["predicted_fraction"] >= MOSTLY_PREDICTED and size >= MIN_SIZE_MOSTLY)
+    big = size >= MIN_SIZE or size >= MIN_SIZE_MOSTLY and (
+        p["predicted_fraction"] >= MOSTLY_PREDICTED or (above_floor or 0.0) > ABOVE_FLOOR)
     return bool(p["predicted_fraction"] >= MIN_PREDICTED and p["t"] >= T_CRIT and big
                 and p["structured_rms"] >= ABOVE_REPLAY * replay_rms)
 
@@ -105,7 +112,7 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
     above = rms / floor if rms is not None and floor else None
     p = predictability
     size = p["structured_rms"] / friction_level if friction_level > 0 else float("inf")
-    out: dict = {"structured": structured(p, friction_level, replay_rms), "replay_rms": replay_rms, "predicted_fraction": p["predicted_fraction"],
+    out: dict = {"structured": structured(p, friction_level, replay_rms, above), "replay_rms": replay_rms, "predicted_fraction": p["predicted_fraction"],
                  "predicted_t": p["t"], "structured_rms": p["structured_rms"],
                  "structured_vs_coulomb": size, "relies_on": list(p["relies_on"]),
                  "correlation_time_ratio": ratio, "noise_floor": floor, "rms_vs_noise_floor": above,
