@@ -188,7 +188,10 @@ def _text(raw: bytes, name: str):
     try:
         table = pacsv.read_csv(
             io.BytesIO(body.encode()),
-            read_options=pacsv.ReadOptions(column_names=header, skip_rows=0 if headerless else 1),
+            # one thread: Arrow's CSV thread pool can still be running when a one-line error
+            # exits the process, and its shutdown then aborts ("terminate called ...", exit -6)
+            read_options=pacsv.ReadOptions(column_names=header, skip_rows=0 if headerless else 1,
+                                           use_threads=False),
             parse_options=pacsv.ParseOptions(delimiter=sep),
             convert_options=pacsv.ConvertOptions(decimal_point=decimal, strings_can_be_null=False))
     except pa.ArrowInvalid as e:
