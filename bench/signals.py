@@ -165,9 +165,9 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     # excitation works; a torque sine's spectral peak is more precise, and used when it agrees
     f_motion, n_rev = motion_frequency(t, q)
     if n_rev < 2 * min_cycles:
-        raise InputError(f"{name}: the joint reverses {n_rev} times in {rec.duration:.4g} s; at least "
-                         f"{2 * min_cycles:g} reversals (sliding back and forth twice) are needed: record a "
-                         f"longer or faster back-and-forth motion")
+        raise InputError(f"{name}: the joint reverses {n_rev} times in {rec.duration:.4g} s, "
+                         f"{n_rev / 2:.2f} back-and-forth cycles; at least {min_cycles:g} are needed: "
+                         f"record a longer or faster back-and-forth motion")
     f_exc = excitation_frequency(t, rec.tau)
     periodic = bool(np.isfinite(f_exc) and abs(f_exc / f_motion - 1.0) < 0.25)
     if not periodic:
