@@ -99,8 +99,9 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str,
     up, down = int(np.sum(hi & (c.v > 0))), int(np.sum(hi & (c.v < 0)))
     if min(up, down) < 3:
         raise NotIdentifiable(
-            f"{name}: the joint slides in one direction only ({up} fast samples moving up, {down} "
-            f"down); record a motion that slides both ways (a torque sine or a back-and-forth move)")
+            f"{name}: the joint never reaches sliding in both directions ({up} fast samples moving up, "
+            f"{down} down); record a motion that slides both ways (a torque sine or a back-and-forth "
+            f"move of larger amplitude)")
     # the paper's line first; only where it fails, the same with an offset and gravity (a
     # clean record keeps the paper's estimates, and the fits that start from them)
     options = [np.zeros((len(F), 0)), np.ones((len(F), 1))]
