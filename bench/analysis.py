@@ -67,8 +67,7 @@ class Analysis:
             "final": breakdown(self.ident.data, self.ident.data.friction - d.contexts[-1].model, alpha),
         }
         data = self.ident.data
-        floor = noise_floor(data.c, self.record.tau, self.record.q, self.ident.inertia, data.mask)
-        doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, floor,
+        doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, d.noise_floor,
                                     self.predictability(), data.coulomb, d.replay_rms)
         return doc
 
@@ -188,10 +187,9 @@ def _diagnose(ident: Identification, rec: Record, add):
     twin, twin_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff)
     diag = diagnose(data, ident.result, rec.meta, ident.inertia, add=add, auto=not add, twin=twin)
     diag.replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
+    diag.noise_floor = floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
     if add:
         return diag
-
-    floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
 
     def leftover(residual):
         p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)

@@ -125,6 +125,7 @@ class Diagnosis:
     cv: CrossValidation | None = None   # the held-out motion segments everything was scored on
     final_predictability: dict | None = None   # of the final residual, once assessed
     replay_rms: float = 0.0        # what a perfect model leaves on this record (bench.perfect_model)
+    noise_floor: float = 0.0       # the record's measurement-noise floor (bench.unexplained)
 
     def entries(self) -> list[dict]:
         """Ranked diagnosis list of the JSON contract: the effects of the final model in the
