@@ -20,7 +20,8 @@ The server's runs execute in control processes (``api.run_process``): each one h
 ``EStop`` and guarded drives, and is registered with the server's ``EStop`` as a *target*.
 A trigger tells every target at once over its e-stop pipe (before stopping any local drive)
 and collects each process's drive reports; a process that does not answer in time is killed.
-The server's latch is persisted (``api.latch``): it survives a crash and a restart.
+The server's latch is written to the run store (``estop`` table) before the answer (a store
+locked for longer than ``KEEP_WAIT``: logged, written later): it survives a crash and a restart.
 """
 from __future__ import annotations
 
@@ -34,6 +35,7 @@ log = logging.getLogger(__name__)
 LOCK_WAIT = 0.05        # s: longest a legacy (simulated) stop waits for a cycle in flight
 CONFIRM_WAIT = 0.2      # s: longest a drive's torque-off confirmation may take (then: unconfirmed)
 STOP_JOIN = 2.0         # s: longest the e-stop handler waits for the stop threads
+KEEP_WAIT = 1.0         # s: longest the answer waits for the latch's write (begun with the stop)
 REMOTE_WAIT = 0.5       # s: longest it waits for a run process's reply before killing it
 
 TORQUE_OFF_STATES = (DriveState.DISABLED, DriveState.QUICK_STOP, DriveState.FAULT)
@@ -187,11 +189,8 @@ class EStop:
             self.last_result = latch["drives"]
 
     def _persist(self, drives: list | None, generation: int) -> None:
-        """Keep the latch (in a thread of its own: the run processes write to the same SQLite
-        file, and the e-stop's answer must not wait for its write lock).  A reset since the
-        trigger (``generation``) wins: a late write never re-latches."""
-        if self._store is None:
-            return
+        """Keep the latch.  A reset since the trigger (``generation``) wins: a late write never
+        re-latches."""
         with self._persist_lock:
             if generation != self._generation or not self.active:
                 return
@@ -200,9 +199,21 @@ class EStop:
             except Exception:      # the stop itself has happened; say loudly that it is not kept
                 log.exception("e-stop: could not persist the latch")
 
-    def _persist_later(self, drives: list | None) -> None:
-        threading.Thread(target=self._persist, args=(drives, self._generation), name="estop-persist",
-                         daemon=True).start()
+    def _persist_later(self, drives: list | None) -> threading.Event | None:
+        """Write the latch in a thread of its own (the run processes write to the same SQLite
+        file: a trigger must not wait for their write lock while it stops drives); the event
+        is set once it is written (or failed, logged)."""
+        if self._store is None:
+            return None
+        done = threading.Event()
+
+        def write(generation: int) -> None:
+            try:
+                self._persist(drives, generation)
+            finally:
+                done.set()
+        threading.Thread(target=write, args=(self._generation,), name="estop-persist", daemon=True).start()
+        return done
 
     def honour_pending(self, wait: float = 2.0) -> None:
         """Before torque goes on: a trigger on its way is waited for (up to ``wait``)."""
@@ -272,9 +283,9 @@ class EStop:
                     log.warning("e-stop: could not reach %r", tg, exc_info=True)
             for d in drives:              # torque off everywhere first: frames, no waiting
                 d.torque_off()
-            # kept at once (beside the confirmations, not in their way): a crash from here on
-            # restarts latched
-            self._persist_later(None)
+            # written at once, beside the confirmations (not in their way); the answer waits
+            # for it below: a client told "latched" finds it latched after a crash
+            kept = self._persist_later(None)
             reports: list = [None] * len(drives)
 
             def confirm(i: int, d: GuardedDrive) -> None:
@@ -290,6 +301,9 @@ class EStop:
             remote_deadline = time.monotonic() + REMOTE_WAIT
             remote = [r for tg in targets for r in tg.estop_collect(remote_deadline)]
             stop_latency = time.perf_counter() - t0
+            if kept is not None and not kept.wait(max(0.0, t0 + KEEP_WAIT - time.perf_counter())):
+                log.error("e-stop: the latch is not written after %.1f s (store busy); a crash "
+                          "before it is would restart unlatched", KEEP_WAIT)
             local = [r if r is not None else {"joint": d.name, "run_id": d.run_id, "state": None,
                                               "torque_off": None, "error": "no confirmation in time"}
                      for d, r in zip(drives, reports)]
