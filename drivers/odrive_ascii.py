@@ -18,8 +18,8 @@ drive's 0x6077 is, so a record carries the torque the drive measured, noise incl
 
 E-stop from another thread: ``torque_off`` writes ``v <axis> 0`` (no reply, so it takes no
 reply slot) under ``write_lock``, held only for a write; from then on every ``c`` goes out
-with torque 0 and ``enable`` refuses.  ``confirm_off`` reads the axis state under
-``exchange_lock``, which a cycle holds for one exchange only.
+with torque 0 and ``enable`` refuses.  ``confirm_off`` reads the axis state (one exchange)
+under ``exchange_lock``, which a cycle holds for one exchange only.
 """
 from __future__ import annotations
 
@@ -153,13 +153,14 @@ class OdriveAsciiDrive:
             text = body
         return text.split()
 
-    def _exchange(self, lines: list[str], shapes: list[str]) -> list[list]:
+    def _exchange(self, lines: list[str], shapes: list[str], timeout: float | None = None) -> list[list]:
         with self.exchange_lock:
-            return self._exchange_locked(lines, shapes)
+            return self._exchange_locked(lines, shapes, timeout)
 
-    def _exchange_locked(self, lines: list[str], shapes: list[str]) -> list[list]:
+    def _exchange_locked(self, lines: list[str], shapes: list[str], timeout: float | None = None) -> list[list]:
         self._send(lines)
-        deadline = time.monotonic() + self.timeout
+        timeout = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + timeout
         got, bad = [], 0
         # the drive answers each query line once, in order: every line received takes the
         # next reply slot, so a corrupt reply fails the exchange at once instead of waiting
@@ -167,7 +168,7 @@ class OdriveAsciiDrive:
             raw = self._readline(deadline)
             if raw is None:
                 raise CommunicationTimeout(f"{self.name}: no reply from {self.j['port']} within "
-                                           f"{self.timeout * 1e3:.0f} ms to {lines}")
+                                           f"{timeout * 1e3:.0f} ms to {lines}")
             fields = self._fields(raw)
             value = None if fields is None else _shape(fields, shapes[len(got) + bad])
             if value is None:
@@ -323,31 +324,39 @@ class OdriveAsciiDrive:
                 self.write_lock.release()
 
     def confirm_off(self, timeout: float) -> DriveState | None:
-        """The axis state after ``torque_off`` (read between two exchanges of the control
-        thread); an axis still in closed loop reports quick stop, as ``status`` does.
-        None: no answer in time."""
+        """The axis state after ``torque_off``: one exchange (state and error in one write),
+        between two of the control thread's.  The line is read in order and every line after
+        torque_off's goes out halted, so an axis still in closed loop is braking: quick stop,
+        whatever ``want`` a concurrent ``disable`` has set.  None: no answer in time."""
         deadline = time.monotonic() + timeout
         while True:
             if not self.ser.is_open:       # closed by its run meanwhile: the stop it acknowledged
                 return self.stop_acked
             if not self.exchange_lock.acquire(timeout=max(0.0, deadline - time.monotonic())):
                 return None
-            saved, self.timeout = self.timeout, min(self.timeout, max(deadline - time.monotonic(), 0.01))
             try:
-                state = self.status().state
+                state, err = self._axis_state(max(deadline - time.monotonic(), 0.01))
             except Exception:
                 return None if self.ser.is_open else self.stop_acked
             finally:
-                self.timeout = saved
                 self.exchange_lock.release()
-            if state != DriveState.ENABLED or time.monotonic() > deadline:
-                return state
-            self.torque_off()      # an enable in flight crossed the stop: stop again
+            if err:
+                return DriveState.FAULT
+            if state != AXIS_CLOSED_LOOP:
+                return DriveState.DISABLED
+            if self.halted:
+                return DriveState.QUICK_STOP
+            if time.monotonic() > deadline:
+                return DriveState.ENABLED
+            self.torque_off()      # called without torque_off first: stop, then read again
+
+    def _axis_state(self, timeout: float | None = None) -> tuple[int, int]:
+        a = f"axis{self.axis}"
+        (state,), (err,) = self._exchange([f"r {a}.current_state", f"r {a}.error"], ["i", "i"], timeout)
+        return state, err
 
     def status(self) -> DriveStatus:
-        a = f"axis{self.axis}"
-        state = self._r(f"{a}.current_state", "i")
-        err = self._r(f"{a}.error", "i")
+        state, err = self._axis_state()
         faults = [f"axis error 0x{err:X}"] if err else []
         if self.latched is not None:
             faults.append(f"host stopped the drive: {self.latched}")

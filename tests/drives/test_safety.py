@@ -2,6 +2,7 @@
 typed DriveError, and the caller can always bring the joint to a safe stop."""
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
@@ -144,6 +145,26 @@ def test_quick_stop_never_raises_when_the_drive_is_gone(rig, transport):
     drive.disable()
     with pytest.raises(DriveError):
         drive.cycle(0.0)
+
+
+@pytest.mark.parametrize("transport", TRANSPORTS)
+def test_estop_confirms_torque_off_while_the_run_disables_the_drive(rig, transport):
+    """The e-stop's torque_off and confirm_off from another thread while the control thread
+    disables the drive (what a run does when it sees the stop): the drive's own state says
+    torque off, and it never enables again."""
+    vb, (drive,) = rig([rotary(transport)])
+    drive.enable()
+    for _ in range(20):
+        drive.cycle(0.05)
+    drive.torque_off()
+    closing = threading.Thread(target=drive.disable)
+    closing.start()
+    state = drive.confirm_off(0.5)
+    closing.join(5)
+    assert state in (DriveState.QUICK_STOP, DriveState.DISABLED), state
+    assert vb.drive("rot").snapshot()["state"] != "enabled"
+    with pytest.raises(DriveError):
+        drive.enable()
 
 
 @pytest.mark.parametrize("joint,needle", [
