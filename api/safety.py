@@ -5,7 +5,8 @@ while it is open.  The wrapper serialises the control loop's ``cycle`` with the 
 run's calls (the serial and CANopen drivers are written for one caller at a time),
 remembers the newest sample (live samples for SSE and ``GET /joints``, read without touching
 the drive), and refuses to cycle while the e-stop is latched, so a run can never put torque
-back on after an e-stop; its rig sees a ``DriveError`` and stops.
+back on after an e-stop; its rig sees a ``DriveError`` and stops, once the e-stop has
+confirmed the drives (``settle``): its stopping must not compete with the confirmations.
 
 ``EStop.trigger`` latches, then commands torque off on every registered drive *first and at
 once* (``torque_off``: one CAN frame / one serial line per drive, sent from this thread
@@ -37,6 +38,7 @@ CONFIRM_WAIT = 0.2      # s: longest a drive's torque-off confirmation may take 
 STOP_JOIN = 2.0         # s: longest the e-stop handler waits for the stop threads
 KEEP_WAIT = 1.0         # s: longest the answer waits for the latch's write (begun with the stop)
 REMOTE_WAIT = 0.5       # s: longest it waits for a run process's reply before killing it
+SETTLE_WAIT = 0.3       # s: longest a latched cycle waits for the confirmations before raising
 
 TORQUE_OFF_STATES = (DriveState.DISABLED, DriveState.QUICK_STOP, DriveState.FAULT)
 
@@ -61,14 +63,17 @@ class GuardedDrive:
         self.closed_event = threading.Event()
 
     def cycle(self, torque: float) -> Sample:
-        if self.estop.active:
-            raise EStopActive(f"{self.name}: emergency stop active")
-        with self.lock:
-            if self.estop.active:     # latched while we waited for the lock
-                raise EStopActive(f"{self.name}: emergency stop active")
-            s = self.drive.cycle(torque)
-        self.last = s
-        return s
+        if not self.estop.active:
+            with self.lock:
+                if not self.estop.active:     # not latched while we waited for the lock
+                    s = self.drive.cycle(torque)
+                    self.last = s
+                    return s
+        # latched: the run stops here, once the e-stop has confirmed its drives (bounded), so
+        # that its reaction (disable, close) does not compete with the confirmations for the
+        # drives' lines, their locks and the GIL
+        self.estop.settle()
+        raise EStopActive(f"{self.name}: emergency stop active")
 
     def enable(self) -> None:
         self.estop.honour_pending()
@@ -171,6 +176,8 @@ class EStop:
         self._persist_lock = threading.Lock()
         self._generation = 0           # bumped by reset: a persist of an older trigger is dropped
         self._latched = threading.Event()
+        self._settled = threading.Event()      # clear while a trigger confirms the drives
+        self._settled.set()
         self.active = False
         self.reason = ""
         self.triggered_at: float | None = None
@@ -214,6 +221,10 @@ class EStop:
                 done.set()
         threading.Thread(target=write, args=(self._generation,), name="estop-persist", daemon=True).start()
         return done
+
+    def settle(self) -> None:
+        """Wait (up to ``SETTLE_WAIT``) until a trigger in progress has its confirmations."""
+        self._settled.wait(SETTLE_WAIT)
 
     def honour_pending(self, wait: float = 2.0) -> None:
         """Before torque goes on: a trigger on its way is waited for (up to ``wait``)."""
@@ -270,44 +281,15 @@ class EStop:
         back each drive's state (local ones here, remote ones in their processes' replies)."""
         with self._trigger_lock:
             t0 = time.perf_counter()
-            self.active = True            # first: no cycle may command torque from now on
-            self._latched.set()
-            self.reason = reason
-            self.triggered_at = time.time()
-            with self._lock:
-                drives, targets = list(self._drives), list(self._targets)
-            for tg in targets:            # the processes start stopping while we stop ours
-                try:
-                    tg.estop_send(reason)
-                except Exception:         # a dead process: estop_collect reports it
-                    log.warning("e-stop: could not reach %r", tg, exc_info=True)
-            for d in drives:              # torque off everywhere first: frames, no waiting
-                d.torque_off()
-            # written at once, beside the confirmations (not in their way); the answer waits
-            # for it below: a client told "latched" finds it latched after a crash
-            kept = self._persist_later(None)
-            reports: list = [None] * len(drives)
-
-            def confirm(i: int, d: GuardedDrive) -> None:
-                reports[i] = d.confirm(CONFIRM_WAIT)
-
-            threads = [threading.Thread(target=confirm, args=(i, d), name=f"estop-{d.name}", daemon=True)
-                       for i, d in enumerate(drives)]
-            for t in threads:
-                t.start()
-            deadline = time.monotonic() + STOP_JOIN
-            for t in threads:
-                t.join(max(0.0, deadline - time.monotonic()))
-            remote_deadline = time.monotonic() + REMOTE_WAIT
-            remote = [r for tg in targets for r in tg.estop_collect(remote_deadline)]
+            self._settled.clear()
+            try:
+                kept, result = self._stop(reason)
+            finally:
+                self._settled.set()
             stop_latency = time.perf_counter() - t0
             if kept is not None and not kept.wait(max(0.0, t0 + KEEP_WAIT - time.perf_counter())):
                 log.error("e-stop: the latch is not written after %.1f s (store busy); a crash "
                           "before it is would restart unlatched", KEEP_WAIT)
-            local = [r if r is not None else {"joint": d.name, "run_id": d.run_id, "state": None,
-                                              "torque_off": None, "error": "no confirmation in time"}
-                     for d, r in zip(drives, reports)]
-            result = local + remote
         for cb in list(self._listeners):
             try:
                 cb(reason)
@@ -317,6 +299,42 @@ class EStop:
         self._persist_later(result)      # with the drives' reports
         return {"active": True, "reason": reason, "stop_latency_ms": 1e3 * stop_latency,
                 "drives": result}
+
+    def _stop(self, reason: str) -> tuple[threading.Event | None, list]:
+        self.active = True            # first: no cycle may command torque from now on
+        self._latched.set()
+        self.reason = reason
+        self.triggered_at = time.time()
+        with self._lock:
+            drives, targets = list(self._drives), list(self._targets)
+        for tg in targets:            # the processes start stopping while we stop ours
+            try:
+                tg.estop_send(reason)
+            except Exception:         # a dead process: estop_collect reports it
+                log.warning("e-stop: could not reach %r", tg, exc_info=True)
+        for d in drives:              # torque off everywhere first: frames, no waiting
+            d.torque_off()
+        # written at once, beside the confirmations (not in their way); the answer waits for
+        # it (trigger): a client told "latched" finds it latched after a crash
+        kept = self._persist_later(None)
+        reports: list = [None] * len(drives)
+
+        def confirm(i: int, d: GuardedDrive) -> None:
+            reports[i] = d.confirm(CONFIRM_WAIT)
+
+        threads = [threading.Thread(target=confirm, args=(i, d), name=f"estop-{d.name}", daemon=True)
+                   for i, d in enumerate(drives)]
+        for t in threads:
+            t.start()
+        deadline = time.monotonic() + STOP_JOIN
+        for t in threads:
+            t.join(max(0.0, deadline - time.monotonic()))
+        remote_deadline = time.monotonic() + REMOTE_WAIT
+        remote = [r for tg in targets for r in tg.estop_collect(remote_deadline)]
+        local = [r if r is not None else {"joint": d.name, "run_id": d.run_id, "state": None,
+                                          "torque_off": None, "error": "no confirmation in time"}
+                 for d, r in zip(drives, reports)]
+        return kept, local + remote
 
     @staticmethod
     def _report(d: GuardedDrive) -> dict:
