@@ -267,6 +267,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         for sc in contenders:
             effect = get(sc.effect)
             new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx)
+            if not forced_step(sc, add) and not effect.credible(new_model.values, cur.ctx):
+                rejected.add(sc.effect)
+                continue
             ev = _evaluate(data, new_model, cv, meta, inertia)
             if not forced_step(sc, add):
                 # nested control: the refit also re-optimises LuGre (and the effects already
