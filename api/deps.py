@@ -29,6 +29,7 @@ class Service:
     runs: RunManager
     analysis_pool: object = None     # lazily created process pool for POST /analyze
     run_cache: OrderedDict = field(default_factory=OrderedDict)   # GET /runs/{id} answers (routes_runs)
+    feeds: dict = field(default_factory=dict)     # run id -> its event streams' api.feed.RunFeed
     auth_failures: AuthFailures = field(default_factory=AuthFailures)   # 429 past its budget (api.limits)
     version: StoreVersion = None     # whether the store changed (api.cache); from the store
     joint_cache: JointCache = None   # GET /joints/{id}'s stored part (api.cache)
