@@ -9,6 +9,7 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from api.auth import KeyStore, Principal
+from api.cache import JointCache, StoreVersion
 from api.limits import AuthFailures
 from api.runs import RunManager
 from api.safety import EStop
@@ -28,7 +29,14 @@ class Service:
     runs: RunManager
     analysis_pool: object = None     # lazily created process pool for POST /analyze
     run_cache: OrderedDict = field(default_factory=OrderedDict)   # GET /runs/{id} answers (routes_runs)
+    feeds: dict = field(default_factory=dict)     # run id -> its event streams' api.feed.RunFeed
     auth_failures: AuthFailures = field(default_factory=AuthFailures)   # 429 past its budget (api.limits)
+    version: StoreVersion = None     # whether the store changed (api.cache); from the store
+    joint_cache: JointCache = None   # GET /joints/{id}'s stored part (api.cache)
+
+    def __post_init__(self):
+        self.version = self.version or StoreVersion(self.store.path)
+        self.joint_cache = self.joint_cache or JointCache(self.store, self.version)
 
 
 # The dependencies are async on purpose: FastAPI runs a sync dependency in the thread pool,

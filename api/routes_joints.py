@@ -1,14 +1,14 @@
 """/joints: configuration, state, model and the compensation switch."""
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends
+from fastapi import APIRouter, Depends, Response
 
 from api import errors as E
 from api.deps import Service, observer, operator, service
 from api.models import (CompensationState, CompensationUpdate, DriveInfo, JointDetail, JointList,
                         JointSummary, Limits, ModelInfo)
 from api.runs import NotFound
-from bench.compensation import get_compensation, set_compensation
+from bench.compensation import set_compensation
 from bench.errors import InputError
 
 router = APIRouter(tags=["joints"], responses={**E.AUTH})
@@ -25,22 +25,6 @@ def _summary(svc: Service, j: dict) -> dict:
     state = "estopped" if svc.estop.active else "busy" if run_id else "idle"
     return {"id": j["id"], "transport": j["transport"], "joint_type": j.get("joint_type", "revolute"),
             "state": state, "run_id": run_id}
-
-
-def _model(svc: Service, joint_id: str, comp: dict) -> ModelInfo | None:
-    m = None
-    if comp.get("model_id"):
-        try:
-            m = svc.store.get_model(comp["model_id"])
-        except InputError:
-            m = None
-    if m is None:
-        models = svc.store.list_models(joint_id)
-        m = models[0] if models else None
-    if m is None:
-        return None
-    return ModelInfo(id=m["id"], run_id=m.get("run_id"), created=m["created"],
-                     parameters={k: float(v) for k, v in m["params"].items()})
 
 
 def _drive(svc: Service, joint_id: str) -> DriveInfo:
@@ -60,15 +44,20 @@ def list_joints(svc: Service = Depends(service), _=Depends(observer)):
 
 @router.get("/joints/{joint_id}", response_model=JointDetail, responses={**E.NOT_FOUND},
             summary="A joint: state, limits, current model, compensation, last drive sample")
-def read_joint(joint_id: str, svc: Service = Depends(service), _=Depends(observer)):
+async def read_joint(joint_id: str, svc: Service = Depends(service), _=Depends(observer)):
+    # Polled for every joint by every page on the bench view.  Async, and the stored part
+    # (compensation, model) from api.cache while the store is unchanged: no worker thread,
+    # no SQLite read, no second validation of the answer in the common case.
     j = _joint(svc, joint_id)
-    comp = get_compensation(svc.store, joint_id)
-    return JointDetail(**_summary(svc, j),
+    comp, model = await svc.joint_cache.stored(joint_id)
+    body = JointDetail(**_summary(svc, j),
                        limits=Limits(position=list(j["position_limits"]), velocity=j["velocity_limit"],
                                      torque=j["torque_limit"]),
                        gravity=list(j["gravity"]), inertia=j["inertia"],
-                       compensation=CompensationState(**comp), model=_model(svc, joint_id, comp),
+                       compensation=CompensationState(**comp),
+                       model=ModelInfo(**model) if model is not None else None,
                        drive=_drive(svc, joint_id))
+    return Response(body.model_dump_json(), media_type="application/json")
 
 
 @router.put("/joints/{joint_id}/compensation", response_model=CompensationState, responses={**E.NOT_FOUND},

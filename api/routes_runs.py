@@ -1,9 +1,6 @@
 """/runs: start, list, watch (SSE), cancel, trace and report."""
 from __future__ import annotations
 
-import asyncio
-import json
-import time
 from typing import Optional
 
 import anyio
@@ -11,6 +8,7 @@ from fastapi import APIRouter, Depends, Header, Query, Request, Response
 from fastapi.responses import HTMLResponse, StreamingResponse
 
 from api import errors as E
+from api import feed
 from api.deps import Service, observer, operator, service
 from api.models import RunCreated, RunInfo, RunList, RunRequest, RunState
 from api.procedures import KINDS, PROCEDURE_OF_KIND
@@ -20,8 +18,6 @@ from bench.errors import InputError
 from bench.store import FINAL
 
 router = APIRouter(tags=["runs"], responses={**E.AUTH})
-SSE_POLL = 0.2          # s between store reads of an SSE stream
-ACTIVE_TTL = 0.1        # s an active run's GET /runs/{id} answer is reused
 RUN_CACHE_SIZE = 512
 
 
@@ -77,22 +73,36 @@ def list_runs(procedure: Optional[str] = Query(None, pattern="^(identify|trackin
 
 @router.get("/runs/{run_id}", response_model=RunInfo, responses={**E.NOT_FOUND}, summary="One run")
 async def read_run(run_id: str, svc: Service = Depends(service), _=Depends(observer)):
-    # Polled by every technician's screen while a run goes on: answers are kept for
-    # ACTIVE_TTL while the run is active (progress moves slowly) and for good once it has
-    # ended, so polling costs neither a thread hop nor a SQLite read nor a re-serialisation
-    # most of the time -- the control loops share this process and its GIL.
-    now = time.monotonic()
+    # Polled by every technician's screen while a run goes on.  The record is read again
+    # only when the store has changed (api.cache), the answer re-encoded only when the
+    # progress (relayed by the run's process) has moved, and kept for good once the run has
+    # ended: most polls cost neither a thread hop nor a SQLite read nor a serialisation.
+    v = svc.version.current()
     hit = svc.run_cache.get(run_id)
-    if hit is not None and (hit[0] is None or now < hit[0]):
-        return Response(hit[1], media_type="application/json")
+    if hit is not None:
+        version, run, progress, body = hit
+        if version is None:                         # ended: final
+            return Response(body, media_type="application/json")
+        if v is not None and version == v:
+            if svc.runs.progress(run) != progress:
+                body = _encode(svc, run_id, run, v)
+            return Response(body, media_type="application/json")
     run = await anyio.to_thread.run_sync(get_run, svc, run_id)
+    return Response(_encode(svc, run_id, run, v), media_type="application/json")
+
+
+def _encode(svc: Service, run_id: str, run: dict, version: int | None) -> bytes:
+    info = run_info(svc, run)
+    body = info.model_dump_json().encode()
     active = run["id"] in svc.runs.handles or run["state"] not in FINAL
-    body = run_info(svc, run).model_dump_json().encode()
-    svc.run_cache[run_id] = (now + ACTIVE_TTL if active else None, body)
+    if active and version is None:      # the store's version unknown: not kept
+        svc.run_cache.pop(run_id, None)
+        return body
+    svc.run_cache[run_id] = (version if active else None, run, info.progress, body)
     svc.run_cache.move_to_end(run_id)
     while len(svc.run_cache) > RUN_CACHE_SIZE:
         svc.run_cache.popitem(last=False)
-    return Response(body, media_type="application/json")
+    return body
 
 
 @router.post("/runs/{run_id}/cancel", status_code=202, response_model=RunInfo, responses={**E.NOT_FOUND},
@@ -140,11 +150,6 @@ SSE_EVENT = {
         "data": {"type": "object", "description": "the document's data, {progress}, {joint: sample}, {state}"}}}
 
 
-def _sse(event: str, data: dict, event_id: int | None = None) -> str:
-    head = f"id: {event_id}\n" if event_id is not None else ""
-    return f"{head}event: {event}\ndata: {json.dumps(data, default=str)}\n\n"
-
-
 @router.get("/runs/{run_id}/events", response_class=StreamingResponse, responses={
     **E.non_json(401, 413, 429, 403, 404, 422), 200: {"content": {"text/event-stream": {
         "schema": {"type": "string", "description": "a stream of events, each as SSE_EVENT describes"},
@@ -160,46 +165,5 @@ async def run_events(request: Request, run_id: str,
     await anyio.to_thread.run_sync(get_run, svc, run_id)
     if last_event_id is not None and last_event_id.strip().lstrip("-").isdigit():
         after = max(after, int(last_event_id))
-    return StreamingResponse(_stream(request, svc, run_id, after, sample_hz), media_type="text/event-stream",
+    return StreamingResponse(feed.stream(request, svc, run_id, after, sample_hz), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
-
-
-async def _stream(request: Request, svc: Service, run_id: str, after: int, sample_hz: float):
-    """Documents from the store (the run's process writes them), the progress when it
-    changes, and at most ``sample_hz`` live samples per second relayed by the run's process."""
-    last, progress, next_sample, state = after, None, 0.0, None
-    period = min(SSE_POLL, 1.0 / sample_hz) if sample_hz > 0 else SSE_POLL
-    ending = False
-    begun = after >= 0      # the run's start document has been sent (or the client has it)
-    while not getattr(request.app.state, "closing", False):
-        docs = await anyio.to_thread.run_sync(svc.store.events, run_id, last)
-        for d in docs:
-            last = d["seq"]
-            name = d["doc"] if d["doc"] in ("start", "stop") else (d["name"] or d["doc"])
-            begun = True
-            yield _sse(name, d, d["seq"])
-        if ending:
-            yield _sse("end", {"run_id": run_id, "state": state})
-            return
-        h = svc.runs.handles.get(run_id)
-        if h is not None:
-            if begun:           # before "start" its process is still starting: nothing to show
-                if h.progress != progress:
-                    progress = h.progress
-                    yield _sse("progress", {"run_id": run_id, "progress": progress})
-                now = time.monotonic()
-                if sample_hz > 0 and now >= next_sample:
-                    next_sample = now + 1.0 / sample_hz
-                    samples = h.samples()
-                    if samples:
-                        yield _sse("sample", {"run_id": run_id, "samples": samples})
-        else:
-            run = await anyio.to_thread.run_sync(svc.store.get_run, run_id)
-            state = run["state"]
-            # not (or no longer) ours: over, or queued by someone who never started it
-            if state in FINAL or state == "queued":
-                ending = True      # one more read drains the documents written at the end
-                continue
-        if await request.is_disconnected():
-            return
-        await asyncio.sleep(period)

@@ -23,10 +23,13 @@ router = APIRouter()
 
 
 @router.get("/health", response_model=Health, tags=["service"], summary="Liveness (no key needed)")
-def health(svc: Service = Depends(service)):
-    return Health(version=bench.__version__, bench=svc.cfg.name, transport=svc.transport, clock=svc.cfg.clock,
+async def health(svc: Service = Depends(service)):
+    # polled by every open page every second: memory only, so async (a sync handler costs a
+    # worker thread for the handler and another for validating its answer)
+    body = Health(version=bench.__version__, bench=svc.cfg.name, transport=svc.transport, clock=svc.cfg.clock,
                   estop=svc.estop.active, active_runs=len(svc.runs.handles),
                   host_overruns=svc.runs.host_overruns())
+    return Response(body.model_dump_json(), media_type="application/json")
 
 
 # --- e-stop ------------------------------------------------------------------------------------

@@ -82,6 +82,9 @@ class RunManager:
         self.last_drive: dict[str, dict] = {}       # joint -> last sample/state after its run
         self._overruns_ended = 0                    # host overruns of the runs that have ended
         self._lock = threading.Lock()
+        # the overrun tally's own lock: /health reads it on the event loop, and start() holds
+        # _lock across store writes
+        self._tally = threading.Lock()
         self._closing = False
         estop.on_trigger(self._on_estop)
         self._recover()
@@ -206,8 +209,8 @@ class RunManager:
     def host_overruns(self) -> int:
         """Control periods missed since the server started: ended runs plus the live counts of
         the active ones (each run's process has its own pacer)."""
-        with self._lock:
-            return self._overruns_ended + sum(h.overruns for h in self.handles.values())
+        with self._tally:
+            return self._overruns_ended + sum(h.overruns for h in list(self.handles.values()))
 
     # --- messages from the run processes (their reader threads) ------------------------------
     def _on_message(self, h: RunHandle, msg: dict) -> None:
@@ -249,7 +252,7 @@ class RunManager:
                 self._end_record(h, run, exitcode, killed)
         except Exception:
             log.exception("could not record the end of run %s", h.run_id)
-        with self._lock:
+        with self._lock, self._tally:
             self.handles.pop(h.run_id, None)
             self._overruns_ended += h.overruns
             self.finished_progress[h.run_id] = h.progress

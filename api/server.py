@@ -32,9 +32,9 @@ def listen(host: str, port: int) -> socket.socket:
     """The listening socket, bound now: a busy port is the caller's one-line error (OSError),
     not uvicorn's log and exit status 3."""
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    # proto TCP, not 0: asyncio sets TCP_NODELAY only on accepted sockets whose proto says
-    # TCP; without it Nagle held a response's body behind its headers until the client's
-    # delayed ACK (~40 ms: one e-stop round trip in ten measured 40-50 ms)
+    # proto named: asyncio turns Nagle off (TCP_NODELAY) only on connections whose socket says
+    # IPPROTO_TCP, and a proto-0 listener's connections say 0.  With Nagle on, uvicorn's two
+    # writes per answer (head, body) waited for the client's delayed ACK: +40 ms per poll
     sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)

@@ -19,6 +19,7 @@ from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
 from bench.perfect_model import replay
 from bench.predictability import assess_predictability
 from bench.records import Record
+from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.unexplained import assess, noise_floor, structured
 from bench.validate import in_range, record_magnitudes
@@ -146,6 +147,7 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
         for n in add:
             get(n)
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
+    rec = on_grid(rec, name)                   # a logger's timestamps, as a file would be read
     if cutoff is not None:
         in_range(cutoff, "cutoff", 0.0, 0.5 / max(rec.dt, 1e-12), lo_open=True)
     with fit_errors():

@@ -248,6 +248,14 @@ def lugre_starts(data: FitData, est: dict, M: float) -> list[dict]:
     starts = [_starting_point(data, est, M)]
     if all(np.isfinite(est[k]) and est[k] > 0 for k in LUGRE_KEYS):
         starts.append({k: est[k] for k in LUGRE_KEYS})
+    first = starts[0]
+    v_max = est.get("v_max")
+    if (first["Fs"] < 1.02 * first["Fc"] or not est["alpha"] > 0) and v_max and np.isfinite(v_max) and v_max > 0:
+        # With no Stribeck dip in the estimates (a coarse logger smears it: Section III sees
+        # Fs = Fc and alpha = 0), the fit stays where Fc does nothing (alpha -> 0, s(v) = Fs).
+        # Start it off that manifold too, the dip's speed on a grid of the record's top speed
+        # (tuning seeds 1209, 1240, 1271: the rotary motor on a 4 ms logger).
+        starts += [dict(first, Fs=1.25 * first["Fc"], alpha=k / v_max) for k in (1.0, 3.0)]
     return starts
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import signal
+from scipy.interpolate import CubicSpline
 
 from bench.fitting import LUGRE_KEYS, FitData, predict
 from bench.lugre import LuGreParams, model_friction
@@ -44,17 +45,48 @@ def replay(rec: Record, data: FitData, values: dict, inertia: float, cutoff: flo
     params = LuGreParams(**{k: values[k] for k in LUGRE_KEYS}, delta=values.get("delta", 1.0))
     q_true = np.empty_like(rec.q)
     tau = np.empty_like(rec.q)
+    friction = np.empty_like(rec.q)
     for a, b in rec.segment_bounds():
         qs = filtfilt(sos, rec.q[a:b])
         F, _ = model_friction(params, qs, c.dt)
-        q_true[a:b] = qs
+        q_true[a:b], friction[a:b] = qs, F
         tau[a:b] = inertia * second_difference(qs, c.dt) + F
-    res = encoder_resolution(rec.q)
-    q = np.round(q_true / res) * res if res > 0 else q_true
+    layout = rec.reading.get("layout")
     meta = dict(rec.meta, torque_hold="sample")
+    if layout is not None and len(layout.ranges) == len(rec.segment_bounds()):
+        q, tau = through_logger(layout, rec, q_true, friction, inertia)
+    else:
+        res = encoder_resolution(rec.q)
+        q = np.round(q_true / res) * res if res > 0 else q_true
     twin = Record(t=rec.t, tau=tau, q=q, meta=meta, segments=rec.segments, step=rec.step)
     twin_data, _ = prepare(twin, inertia, cutoff, name, "sample")
     twin_data.mask = data.mask if len(data.mask) == len(twin_data.mask) else twin_data.mask
     twin_data.z0 = data.z0
     lugre = {k: values[k] for k in LUGRE_KEYS} | {"delta": values.get("delta", 1.0)}
     return twin_data, twin_data.friction - predict(twin_data, lugre)
+
+
+def through_logger(layout, rec: Record, q_true: np.ndarray, friction: np.ndarray,
+                   inertia: float) -> tuple[np.ndarray, np.ndarray]:
+    """The twin as the logger saw it: its motion (a cubic through the smooth twin on the grid)
+    and torque (M q'' of that cubic plus the friction) at the logger's own times, positions
+    quantised like the logged ones, then put back on the grid the same way the record was
+    (``bench.resample.Layout``): interpolation across 1-13 ms steps leaves its own structure
+    at every reversal, and a perfect model would leave it too.  The torque is evaluated at
+    those times, as a logger reads it, not interpolated from the grid."""
+    res = encoder_resolution(layout.q)
+    q_out, tau_out = np.empty_like(q_true), np.empty_like(q_true)
+    for i, (a, b) in enumerate(rec.segment_bounds()):
+        ra, rb = layout.ranges[i]
+        ts, grid = layout.t[ra:rb], rec.t[a:b]
+        if b - a > 3:
+            spline = CubicSpline(grid, q_true[a:b])
+            q_raw, acc = spline(ts), spline(ts, 2)
+        else:
+            q_raw, acc = np.interp(ts, grid, q_true[a:b]), np.zeros(len(ts))
+        tau_raw = inertia * acc + np.interp(ts, grid, friction[a:b])
+        if res > 0:
+            q_raw = np.round(q_raw / res) * res
+        piece = layout.resample(i, q_raw, tau_raw)
+        q_out[a:b], tau_out[a:b] = piece["q"], piece["tau"]
+    return q_out, tau_out

@@ -4,7 +4,7 @@ Not a timed test: prints a markdown table.  Loopback only; bounded request count
 
     python benchmarks/bench_api.py [--pattern poll|page] [--clients 50] [--poll 0.2] [--pages 20]
                                    [--seconds 5] [--rounds 6] [--estops 5]
-                                   [--client-cpus server|any] [--no-pin] [--rt-priority N]
+                                   [--client-cpus server|any] [--client-procs N] [--no-pin] [--rt-priority N]
     python benchmarks/bench_api.py --estop-table 20      # only: e-stop per run type, both clocks
 
 1. ``bench serve`` in a child process with macro4 switched to the realtime clock, as in
@@ -30,12 +30,15 @@ Not a timed test: prints a markdown table.  Loopback only; bounded request count
    client round trip and the server's latch -> every run process answered (its drives
    stopped and read back).  Target <= 50 ms.
 
-The clients run in this process and stand in for technicians' browsers on other machines:
+The clients stand in for technicians' browsers on other machines.  ``--pattern page``: light
+HTTP/1.1 clients in ``--client-procs`` processes (default one per page; ``page_clients.py``
+says why not httpx in one process); ``--pattern poll``: httpx in this process.
 ``--client-cpus server`` (default) keeps them on the server's CPU, so what the control loop
 sees under load is what the server costs it; ``any`` lets them take the control CPU too
-(``--client-nice`` lowers their priority).  Their process freezes its heap: one process's
-collector pauses would bunch the requests of all the clients.  On a shared machine read the
-printed load first.
+(``--client-nice`` lowers their priority).  Client processes freeze their heaps: a collector
+pause would bunch the requests of all their clients.  Besides latency (which a loaded machine
+inflates), the table gives CPU time per request of the server and of the clients, which
+hardly depends on the machine's other load.  On a shared machine read the printed load first.
 """
 from __future__ import annotations
 
@@ -43,6 +46,7 @@ import argparse
 import asyncio
 import gc
 import json
+import multiprocessing
 import os
 import re
 import statistics
@@ -55,6 +59,7 @@ from pathlib import Path
 
 import httpx
 
+import page_clients
 from api import cpus
 from api.server import free_port
 
@@ -78,6 +83,13 @@ def start_server(tmp: Path, port: int, pin: bool = True, rt_priority: int = 0,
             time.sleep(0.2)
     proc.kill()
     raise SystemExit("server did not start")
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of process ``pid`` (all its threads; not its children)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def uptime() -> str:
@@ -138,64 +150,6 @@ def page_pattern() -> dict:
     if m is None:
         raise SystemExit("api/static/api.js: no 'export const POLL = {...};' line")
     return json.loads(m.group(1))
-
-
-async def page_load(url: str, key: str, run_id: str, pages: int, joints: list[str], seconds: float) -> dict:
-    """``pages`` technician's pages: each polls /health; even ones watch the run (GET
-    /runs/{id} + the event stream), odd ones show the bench (GET /joints/{id} per joint)."""
-    poll = page_pattern()
-    lat: list[float] = []
-    by_kind: dict[str, list[float]] = {}
-    errors = 0
-    sse_events = 0
-    stop_at = time.monotonic() + seconds
-    headers = {"Authorization": f"Bearer {key}"}
-    limits = httpx.Limits(max_connections=3 * pages + 5, max_keepalive_connections=3 * pages + 5)
-    async with httpx.AsyncClient(base_url=url, headers=headers, timeout=10, limits=limits) as c:
-        async def timed(path: str):
-            nonlocal errors
-            t0 = time.perf_counter()
-            try:
-                ok = (await c.get(path)).status_code == 200
-            except httpx.HTTPError:
-                ok = False
-            lat.append(time.perf_counter() - t0)
-            by_kind.setdefault(path.split("/")[1], []).append(lat[-1])
-            errors += not ok
-
-        async def every(period_ms: float, offset: float, paths: list[str]):
-            period = period_ms / 1e3
-            await asyncio.sleep(offset * period)          # pages were not opened in the same ms
-            while time.monotonic() < stop_at:
-                t0 = time.perf_counter()
-                await asyncio.gather(*[timed(p) for p in paths])     # the page's Promise.all
-                await asyncio.sleep(max(0.0, period - (time.perf_counter() - t0)))
-
-        async def sse():
-            nonlocal sse_events, errors
-            try:
-                async with c.stream("GET", f"/runs/{run_id}/events",
-                                    params={"after": -1, "sample_hz": poll["sample_hz"]},
-                                    timeout=httpx.Timeout(10, read=seconds + 10)) as r:
-                    errors += r.status_code != 200
-                    async for line in r.aiter_lines():
-                        if line.startswith("event:"):
-                            sse_events += 1
-                        if time.monotonic() >= stop_at:
-                            return
-            except httpx.HTTPError:
-                errors += 1
-
-        tasks = []
-        for i in range(pages):
-            offset = i / pages
-            tasks.append(every(poll["health_ms"], offset, ["/health"]))
-            if i % 2 == 0:
-                tasks += [every(poll["run_ms"], offset, [f"/runs/{run_id}"]), sse()]
-            else:
-                tasks.append(every(poll["joints_ms"], offset, [f"/joints/{j}" for j in joints]))
-        await asyncio.gather(*tasks)
-    return {"latencies": lat, "errors": errors, "sse_events": sse_events, "by_kind": by_kind}
 
 
 def overruns(c: httpx.Client) -> int:
@@ -277,6 +231,8 @@ def main() -> None:
     ap.add_argument("--client-nice", type=int, default=0, help="niceness of this (client) process")
     ap.add_argument("--client-cpus", choices=("server", "any"), default="server",
                     help="clients on the server's CPU (default) or on any CPU")
+    ap.add_argument("--client-procs", type=int, default=0,
+                    help="--pattern page: client processes, the pages dealt out among them (0: one per page)")
     ap.add_argument("--no-pin", action="store_true", help="bench serve --no-pin-cpus")
     ap.add_argument("--rt-priority", type=int, default=0,
                     help="bench serve --rt-priority: SCHED_FIFO for the run control processes (0: normal)")
@@ -294,16 +250,22 @@ def main() -> None:
         print("\n".join(rows))
         return
     placement = None if args.no_pin else cpus.split()
+    client_cpus = placement[0] if args.client_cpus == "server" and placement is not None else None
+    # the clients stand in for technicians' browsers on other machines; --client-nice lets
+    # them yield the shared cores to the server (but then their own latency clock suffers)
+    if args.client_nice:
+        os.nice(args.client_nice)
+    procs = min(args.pages, args.client_procs or args.pages)
+    pool = None
+    if args.pattern == "page":      # started before the server: their start-up is not measured
+        pool = multiprocessing.get_context("spawn").Pool(procs, initializer=page_clients.worker_init,
+                                                           initargs=(client_cpus,))
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
         port = free_port()
         proc = start_server(tmp, port, pin=not args.no_pin, rt_priority=args.rt_priority)
-        # the clients stand in for technicians' browsers on other machines; --client-nice lets
-        # them yield the shared cores to the server (but then their own latency clock suffers)
-        if args.client_nice:
-            os.nice(args.client_nice)
-        if args.client_cpus == "server" and placement is not None:
-            cpus.pin(placement[0])
+        if client_cpus is not None:
+            cpus.pin(client_cpus)
         # the clients' garbage collector pauses would bunch their requests (and add to the
         # latencies they measure): browsers on other machines do neither
         gc.collect()
@@ -327,20 +289,35 @@ def main() -> None:
             res = {"latencies": [], "errors": 0, "sse_events": 0}
             by_kind: dict[str, list[float]] = {}
             measured = 0
+            cpu = {"server": 0.0, "clients": 0.0}     # CPU seconds the load cost, over all rounds
+            poll = page_pattern()
             for _ in range(args.rounds):
-                o0 = overruns(c)
+                o0, s0, t0 = overruns(c), cpu_seconds(proc.pid), time.monotonic()
                 time.sleep(args.seconds)
-                o1 = overruns(c)
+                o1, s1, t1 = overruns(c), cpu_seconds(proc.pid), time.monotonic()
                 if args.pattern == "page":
-                    part = asyncio.run(page_load(url, key, run_id, args.pages, joints, args.seconds))
+                    start_at = time.monotonic() + 0.05
+                    parts = pool.starmap(page_clients.worker, [
+                        (url, key, run_id, list(range(k, args.pages, procs)), args.pages, joints, poll, start_at,
+                         args.seconds) for k in range(procs)])
+                    part = {"latencies": [x for p in parts for x in p["latencies"]], "by_kind": {},
+                            **{k: sum(p[k] for p in parts) for k in ("errors", "sse_events", "cpu")}}
+                    for p in parts:
+                        for k, v in p["by_kind"].items():
+                            part["by_kind"].setdefault(k, []).extend(v)
                 else:
+                    r0 = time.process_time()
                     part = asyncio.run(load(url, key, run_id, args.clients, args.poll, args.seconds))
-                o2 = overruns(c)
+                    part["cpu"] = time.process_time() - r0
+                o2, s2, t2 = overruns(c), cpu_seconds(proc.pid), time.monotonic()
                 if c.get(f"/runs/{run_id}").json()["state"] != "running":
                     break           # the calibration ended in this round: no control loop to compare
                 measured += 1
                 base, loaded = base + o1 - o0, loaded + o2 - o1
                 rounds.append(f"{o1 - o0} / {o2 - o1}")
+                # the server's CPU time beyond its quiet rate (relaying the run's status)
+                cpu["server"] += (s2 - s1) - (s1 - s0) / (t1 - t0) * (t2 - t1)
+                cpu["clients"] += part["cpu"]
                 for k in res:
                     res[k] += part[k]
                 for k, v in part.get("by_kind", {}).items():
@@ -373,6 +350,8 @@ def main() -> None:
                 proc.wait(30)
             except subprocess.TimeoutExpired:
                 proc.kill()
+            if pool is not None:
+                pool.terminate()
     lat = [x * 1e3 for x in res["latencies"]]
     ms = lambda x: f"{x * 1e3:.1f}"  # noqa: E731
     print(f"## REST service under load (macro4, realtime 1 ms clock, calibration {still} during the load)\n")
@@ -382,7 +361,8 @@ def main() -> None:
     where = ("not pinned" if placement is None else
              f"server on CPU {sorted(placement[0])}, run processes on {sorted(placement[1])}")
     sched = f"SCHED_FIFO {args.rt_priority}" if args.rt_priority else "normal scheduling"
-    print(f"run processes: {sched}; CPUs: {where}; clients on {'the server CPU' if args.client_cpus == 'server' and placement else 'any CPU'}"
+    clients = (f"{procs} client processes (light HTTP/1.1)" if args.pattern == "page" else "clients in one process (httpx)")
+    print(f"run processes: {sched}; CPUs: {where}; {clients} on {'the server CPU' if client_cpus else 'any CPU'}"
           f"{f', nice {args.client_nice}' if args.client_nice else ''}\n")
     if measured < args.rounds:
         print(f"**the calibration ended ({still}) in round {measured + 1} of {args.rounds}: only {measured} "
@@ -407,8 +387,11 @@ def main() -> None:
         print(f"| latency of /{kind}... p50 / p99 / max [ms], n={len(xs)} | {pct(xs, 50):.1f} / {pct(xs, 99):.1f} / "
               f"{max(xs):.1f} | |")
     print(f"| SSE events received during load | {res['sse_events']} | |")
-    # (no CPU-per-request row: the realtime pacer yield-spins the end of every period, so the
-    # server process fills its core either way and CPU time says nothing about the requests)
+    # CPU time, unlike latency, hardly depends on what else the machine runs (the control loops
+    # run in their own processes: the server's own CPU time is its requests' and the relay's)
+    n = max(1, len(lat))
+    print(f"| server CPU per request beyond its quiet rate (SSE included) [ms] | {1e3 * cpu['server'] / n:.2f} | |")
+    print(f"| clients' CPU per request (SSE included) [ms] | {1e3 * cpu['clients'] / n:.2f} | |")
     print(f"| host overruns, quiet phases ({total:g} s, {periods} periods) | {base} | |")
     print(f"| host overruns, loaded phases ({total:g} s, {periods} periods) | {loaded} | no more than quiet |")
     print(f"| host overruns per round, quiet / loaded | {', '.join(rounds)} | |")

@@ -79,6 +79,11 @@ class Effect:
         """Finite-difference step for the screening column of ``key``."""
         return 1e-3 * max(float(np.std(ctx.data.friction)), 1e-12)
 
+    def credible(self, values: dict, ctx: Context) -> bool:
+        """Can this record show the effect with these fitted values at all?  (A resonance
+        above the comparison filter's cutoff cannot be seen, only the filter's edge.)"""
+        return True
+
     def apply(self, values: dict, extra: dict, ev: np.ndarray) -> None:
         raise NotImplementedError
 

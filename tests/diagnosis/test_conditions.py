@@ -26,22 +26,35 @@ def _within(doc, spec, tol=0.05):
                for k in ("Fc", "Fs", "sigma2"))
 
 
-# Known gaps, run and reported as expected failures (see the README's known limits): after
-# resampling a 1-13 ms logger with gaps, and on friction-torque records, clean joints are not
-# yet reliably left with nothing to explain and parameters within 5 %.
-KNOWN_GAPS = {"jittered timestamps with dropped samples", "friction-torque record"}
+# Known gap, run and reported as an expected failure (README known limits): the rotary motor
+# (Table I) on a 3-6 ms PC logger.  Its torque is 27x its friction (inertia-dominated), and at
+# that step the chain (torque staircase sampled at the logger's times, positions interpolated
+# across 1-13 ms, an 11 Hz comparison band) leaves an estimator bias of several % of Fc: the
+# true parameters fit worse than biased ones (tuning seed 1209: 0.040 against 0.033 of Fc).
+# Every other joint is held to the issue's bar under that condition.
+KNOWN_GAPS = {("jittered timestamps with dropped samples", "rotary")}
 
 
-def _marked(names):
-    return [pytest.param(n, marks=pytest.mark.xfail(reason="known gap, see README known limits", strict=False))
-            if n in KNOWN_GAPS else n for n in names]
+def _joints(condition):
+    return [j for j in JOINTS if (condition, j) not in KNOWN_GAPS]
 
 
-@pytest.mark.parametrize("condition", _marked(CONDITION_NAMES))
+@pytest.mark.parametrize("condition", CONDITION_NAMES)
 def test_clean_joints_nothing_to_explain_in_19_of_20(condition):
+    misses = _misses(condition, _joints(condition))
+    assert len(misses) <= 1, misses
+
+
+@pytest.mark.xfail(reason="known gap, see README known limits", strict=False)
+@pytest.mark.parametrize("condition, joint", sorted(KNOWN_GAPS))
+def test_known_gap_nothing_to_explain(condition, joint):
+    assert len(_misses(condition, [joint], seeds=5)) <= 0
+
+
+def _misses(condition, joints, seeds=20):
     misses = []
-    for i in range(20):
-        spec = PRESETS[JOINTS[i % len(JOINTS)]]
+    for i in range(seeds):
+        spec = PRESETS[joints[i % len(joints)]]
         seed = 6000 + 100 * CONDITION_NAMES.index(condition) + i
         rec, _ = make_record(spec, condition, seed)
         doc = analyze_record(rec).report()
@@ -49,21 +62,38 @@ def test_clean_joints_nothing_to_explain_in_19_of_20(condition):
         if significant or doc["unexplained"]["structured"] or not _within(doc, spec):
             misses.append((spec.name, seed, significant, doc["unexplained"]["evidence"][:120],
                            {k: doc["parameters"][k] for k in ("Fc", "Fs", "sigma2")}))
-    assert len(misses) <= 1, misses
+    return misses
 
 
 # every library effect under every condition the analysis handles, three effects per
 # condition in rotation (so each effect meets about two conditions and a joint each time)
 EFFECT_NAMES = list(EFFECTS)
+NEW_CONDITIONS = ("jittered timestamps with dropped samples", "friction-torque record")
 CASES = [(cond, EFFECT_NAMES[(3 * i + k) % len(EFFECT_NAMES)], JOINTS[(i + k) % len(JOINTS)])
-         for i, cond in enumerate(c for c in CONDITION_NAMES if c not in KNOWN_GAPS) for k in range(3)]
+         for i, cond in enumerate(c for c in CONDITION_NAMES if c not in NEW_CONDITIONS) for k in range(3)]
+# the conditions handled since, three effects each, continuing the rotation: on a friction-torque
+# record (inertia 0) eq. 5 subtracts nothing, so the effects that live in M qdd (an inertia
+# error, a torque lag, a gear's load) cannot show there and are skipped
+_ROTATION = [(e, j) for e, j in zip(EFFECT_NAMES * 3, JOINTS * 6)][len(CASES):]
+for cond in NEW_CONDITIONS:
+    picks = [(e, j) for e, j in _ROTATION
+             if (cond, j) not in KNOWN_GAPS
+             and not (cond == "friction-torque record"
+                      and e in ("inertia_error", "torque_lag", "backlash", "joint_flexibility"))][:3]
+    CASES += [(cond, e, j) for e, j in picks]
+    _ROTATION = [p for p in _ROTATION if p not in picks]
 
 
 # Known misses on these seeds (reported as expected failures; README known limits): under
 # coloured process noise gravity on j1's short travel was named torque_offset (over a fraction
 # of a radian a*sin q + b*cos q is nearly a constant); with two tones a torque lag on j3 was
 # named, with a Stribeck exponent added beside it.
-KNOWN_MISSES = {("coloured process noise", "gravity"), ("two-tone torque", "torque_lag")}
+# On a 3-6 ms logger, j3's inertia error (declared 0.71 of the true) was named torque_lag (first
+# run of the case, seed 7100; a torque lag below the logger's step is also read as gravity on
+# tuning seed 1348): under a logger the two are told apart only by the phase of a residual at
+# the excitation's frequency, which the resampled torque blurs.
+KNOWN_MISSES = {("coloured process noise", "gravity"), ("two-tone torque", "torque_lag"),
+                ("jittered timestamps with dropped samples", "inertia_error")}
 CASES = [pytest.param(*c, marks=pytest.mark.xfail(reason="known miss, see README known limits", strict=False))
          if c[:2] in KNOWN_MISSES else c for c in CASES]
 
