@@ -291,7 +291,10 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                     rejected.add(sc.effect)
                     continue
             k = len(new_model.params) - len(model.params)
-            n = max(len(ev.r) * effective_sample_fraction(ev.r), 2.0)
+            # one sample count for every contender of the round (that of the residual they all
+            # start from): with each contender's own, a whiter residual counted more samples
+            # and won with a larger error (a torque lag lost to an inertia error, test seed 7063)
+            n = max(n_eff, 2.0)
             results.append((n * math.log(max(ev.rms, 1e-300) ** 2) + k * math.log(n), sc, ev))
         if not results:
             if improved_base is not None and improved_base.rms < cur.rms:
