@@ -144,7 +144,7 @@ def position_periodogram(q: np.ndarray, y: np.ndarray, pitches: np.ndarray,
 
 
 def pitch_grid(q: np.ndarray, n: int = 400) -> np.ndarray:
-    """Candidate pitches: from a quarter of the travel down to 1/150 of it, uniform in
+    """Candidate pitches: from 2/3 of the travel down to 1/150 of it, uniform in
     spatial frequency (the resolution a periodogram has)."""
     span = float(np.ptp(q))
     f_lo, f_hi = 1.5 / span, 150.0 / span

@@ -67,6 +67,13 @@ class PositionSeries(Effect):
     def params(self, init):
         return [Param(k, v, log=k.endswith("_pitch")) for k, v in init.items()]
 
+    def credible(self, values, ctx):
+        # "periodic in position" needs a whole period inside the travel; a longer pitch is a
+        # smooth trend (a spring or cable pulling to one end: on tuning seeds 1002 and 1004 the
+        # linear stage's 0.2 m travel was "cogging" of pitch 0.49-0.55 m).  Injected cogging and
+        # position-dependent friction have 2-20 periods in the travel.
+        return self.pitch(values) <= float(np.ptp(ctx.data.c.q))
+
     def apply(self, values, extra, ev):
         ev[self.pitch_slot] = values[f"{self.prefix}_pitch"]
         for k in range(self.harmonics):
