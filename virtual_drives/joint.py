@@ -87,16 +87,18 @@ class Gear:
 
 class VirtualJoint:
     """One simulated axis.  ``extra`` is a ``bench.terms`` vector of physics beyond LuGre
-    (gravity of the spec is added to it); ``true_inertia`` overrides the spec's inertia."""
+    (gravity of the spec is added to it unless ``gravity`` is False: the condition records
+    leave it out, the host compensating it); ``true_inertia`` overrides the spec's inertia."""
 
     def __init__(self, spec: JointSpec, dt: float = 1e-3, seed: int = 0,
-                 extra: np.ndarray | None = None, q0: float | None = None):
+                 extra: np.ndarray | None = None, q0: float | None = None, gravity: bool = True):
         self.spec = spec
         self.dt = float(dt)
         self.rng = np.random.default_rng(seed)
         self.ev = terms.empty() if extra is None else terms.full(extra)
-        self.ev[terms.GRAV_SIN] += spec.gravity[0]
-        self.ev[terms.GRAV_COS] += spec.gravity[1]
+        if gravity:
+            self.ev[terms.GRAV_SIN] += spec.gravity[0]
+            self.ev[terms.GRAV_COS] += spec.gravity[1]
         self.p = spec.friction.vector()
         f = spec.friction
         self.n_sub = substeps_for(self.dt, spec.inertia, f.sigma0, f.sigma1, f.sigma2)

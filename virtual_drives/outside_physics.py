@@ -23,7 +23,6 @@ import math
 
 import numpy as np
 
-from bench import terms
 from bench.records import Record
 from virtual_drives.joint import JointSpec, VirtualJoint, quantise, sine_torque
 from virtual_drives.scenarios import travel_of
@@ -41,12 +40,9 @@ def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0
     t = np.arange(n) * dt
     cmd = sine_torque(A, f, t)
     Fc = spec.friction.Fc
-    # as the condition records (``virtual_drives.recording.make``): the preset's gravity is not
-    # in the joint (the host compensates it); the emulator's VirtualJoint adds it, so cancel it
-    # here, or a Pi-joint (j2, j4) hangs to one side and never slides upwards
-    no_gravity = terms.empty()
-    no_gravity[terms.GRAV_SIN], no_gravity[terms.GRAV_COS] = -spec.gravity[0], -spec.gravity[1]
-    joint = VirtualJoint(spec, dt=dt, seed=seed, extra=no_gravity)
+    # without the preset's gravity, as the condition records (``virtual_drives.recording.make``):
+    # with it a Pi-joint (j2, j4) hangs to one side and never slides upwards
+    joint = VirtualJoint(spec, dt=dt, seed=seed, gravity=False)
     lo, hi = spec.position_limits
     mid = 0.5 * (lo + hi)
     travel = travel_of(spec, duration)

@@ -13,7 +13,10 @@ from api.safety import EStop
 from bench.store import Store
 
 
-def _hold_write_lock(path, seconds: float, held: threading.Event) -> threading.Thread:
+def _hold_write_lock(path, seconds: float) -> threading.Thread:
+    """Another connection takes the store's write lock for ``seconds``; returns once it holds it."""
+    held = threading.Event()
+
     def hold():
         c = sqlite3.connect(path, isolation_level=None)
         c.execute("BEGIN IMMEDIATE")
@@ -23,15 +26,14 @@ def _hold_write_lock(path, seconds: float, held: threading.Event) -> threading.T
         c.close()
     t = threading.Thread(target=hold, daemon=True)
     t.start()
+    assert held.wait(5)
     return t
 
 
 def test_answer_waits_for_the_latch_write(tmp_path):
     store = Store(tmp_path)
     estop = EStop(store=store)
-    held = threading.Event()
-    holder = _hold_write_lock(store.path, 0.3, held)
-    assert held.wait(5)
+    holder = _hold_write_lock(store.path, 0.3)
     t0 = time.monotonic()
     estop.trigger("test")
     assert time.monotonic() - t0 >= 0.25                 # it waited for the lock ...
@@ -43,9 +45,7 @@ def test_a_store_locked_for_long_delays_the_answer_by_keep_wait_at_most(tmp_path
     monkeypatch.setattr(safety, "KEEP_WAIT", 0.2)
     store = Store(tmp_path)
     estop = EStop(store=store)
-    held = threading.Event()
-    holder = _hold_write_lock(store.path, 1.5, held)
-    assert held.wait(5)
+    holder = _hold_write_lock(store.path, 1.5)
     t0 = time.monotonic()
     assert estop.trigger("test")["active"] is True
     assert time.monotonic() - t0 < 1.0
