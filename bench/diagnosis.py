@@ -280,6 +280,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 rejected.add(sc.effect)
                 continue
             ev = _evaluate(data, new_model, cv, meta, inertia)
+            if not forced_step(sc, add) and not effect.holds(new_model.values, ev.ctx):
+                rejected.add(sc.effect)
+                continue
             if not forced_step(sc, add):
                 # nested control: the refit also re-optimises LuGre (and the effects already
                 # in); refit without the new effect from those values, and credit the effect

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.effects.base import Context, Effect, check_known, explained_text, number
+from bench.effects.base import POSITION_ADDS, Context, Effect, check_known, explained_text, number, position_adds
 from bench.errors import InputError
 
 
@@ -28,6 +28,13 @@ class InertiaError(Effect):
         X = np.column_stack([np.sign(c.v[hi]), c.v[hi], c.a[hi]])
         coef, *_ = np.linalg.lstsq(X, F[hi], rcond=None)
         return {"inertia_error": float(coef[2])}
+
+    def holds(self, values, ctx):
+        """Its physics must hold beyond the excitation's frequency.  Under a sine the
+        acceleration follows the position, so a force along the travel (a spring, a cable
+        carrier) leaves what an inertia error leaves there; only the motion's harmonics tell
+        them apart, and with the fitted term in, position must add nothing."""
+        return position_adds(values["inertia_error"] * ctx.data.c.a, ctx) <= POSITION_ADDS
 
     def fd_step(self, key, ctx):
         if ctx.inertia > 0:

@@ -2,16 +2,8 @@
 spring) present in both directions of motion and at standstill."""
 from __future__ import annotations
 
-import numpy as np
-
 from bench import terms
-from bench.effects.base import Context, Effect, check_known, explained_text, number
-
-
-# The two halves' means differ by at most this share of the larger: injected offsets on the
-# six joints (tuning seeds 1600-1601) 0.006-0.05; a spring towards a point off the centre of
-# the travel on the linear stage (outside physics, tuning seeds 1001-1003) 0.36-0.42.
-HALVES_AGREE = 0.2
+from bench.effects.base import Context, Effect, check_known, explained_text, number, one_level_along_travel
 
 
 class TorqueOffset(Effect):
@@ -22,14 +14,8 @@ class TorqueOffset(Effect):
         return [{"offset": 0.0}]
 
     def credible(self, values, ctx):
-        # a constant is the same over both halves of the travel: the residual it is fitted to
-        # must have nearly one mean on each (a spring or a cable pulling towards one end has
-        # opposite ones, and an offset would absorb only their average)
-        m = ctx.data.mask
-        r, q = ctx.residual[m], ctx.data.c.q[m]
-        lower = q < np.median(q)
-        lo, hi = float(np.mean(r[lower])), float(np.mean(r[~lower]))
-        return abs(lo - hi) <= HALVES_AGREE * max(abs(lo), abs(hi))
+        # a constant is the same over both halves of the travel
+        return one_level_along_travel(ctx)
 
     def apply(self, values, extra, ev):
         ev[terms.OFFSET] += values["offset"]
