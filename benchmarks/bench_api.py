@@ -59,6 +59,7 @@ from importlib import resources
 from pathlib import Path
 
 import httpx
+import numpy as np
 
 import page_clients
 from api import cpus
@@ -105,7 +106,6 @@ def overrun_comparison(pairs: list[tuple[int, int]], draws: int = 20000) -> str:
     (one hypervisor stall is tens of missed periods, in whichever phase it falls), so a sum
     over a few rounds says little: the ratio of the sums gets a 95 % bootstrap interval over
     rounds, beside how many rounds had more under load than quiet and fewer."""
-    import numpy as np
     q, l = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
     if len(q) == 0:
         return "no rounds"
@@ -303,10 +303,9 @@ def main() -> None:
             time.sleep(3.0)                              # past rig start-up
             # alternate quiet and loaded phases: the machine is shared, its background load
             # drifts, and adjacent phases see about the same background
-            base, loaded, rounds, pairs = 0, 0, [], []
+            pairs: list[tuple[int, int]] = []     # host overruns per round, quiet / loaded
             res = {"latencies": [], "errors": 0, "sse_events": 0}
             by_kind: dict[str, list[float]] = {}
-            measured = 0
             cpu = {"server": 0.0, "clients": 0.0}     # CPU seconds the load cost, over all rounds
             poll = page_pattern()
             for _ in range(args.rounds):
@@ -330,9 +329,6 @@ def main() -> None:
                 o2, s2, t2 = overruns(c), cpu_seconds(proc.pid), time.monotonic()
                 if c.get(f"/runs/{run_id}").json()["state"] != "running":
                     break           # the calibration ended in this round: no control loop to compare
-                measured += 1
-                base, loaded = base + o1 - o0, loaded + o2 - o1
-                rounds.append(f"{o1 - o0} / {o2 - o1}")
                 pairs.append((o1 - o0, o2 - o1))
                 # the server's CPU time beyond its quiet rate (relaying the run's status)
                 cpu["server"] += (s2 - s1) - (s1 - s0) / (t1 - t0) * (t2 - t1)
@@ -383,6 +379,7 @@ def main() -> None:
     clients = (f"{procs} client processes (light HTTP/1.1)" if args.pattern == "page" else "clients in one process (httpx)")
     print(f"run processes: {sched}; CPUs: {where}; {clients} on {'the server CPU' if client_cpus else 'any CPU'}"
           f"{f', nice {args.client_nice}' if args.client_nice else ''}\n")
+    measured = len(pairs)
     if measured < args.rounds:
         print(f"**the calibration ended ({still}) in round {measured + 1} of {args.rounds}: only {measured} "
               f"round(s) counted**\n")
@@ -411,9 +408,10 @@ def main() -> None:
     n = max(1, len(lat))
     print(f"| server CPU per request beyond its quiet rate (SSE included) [ms] | {1e3 * cpu['server'] / n:.2f} | |")
     print(f"| clients' CPU per request (SSE included) [ms] | {1e3 * cpu['clients'] / n:.2f} | |")
-    print(f"| host overruns, quiet phases ({total:g} s, {periods} periods) | {base} | |")
-    print(f"| host overruns, loaded phases ({total:g} s, {periods} periods) | {loaded} | no more than quiet |")
-    print(f"| host overruns per round, quiet / loaded | {', '.join(rounds)} | |")
+    print(f"| host overruns, quiet phases ({total:g} s, {periods} periods) | {sum(p[0] for p in pairs)} | |")
+    print(f"| host overruns, loaded phases ({total:g} s, {periods} periods) | {sum(p[1] for p in pairs)} | "
+          f"no more than quiet |")
+    print(f"| host overruns per round, quiet / loaded | {', '.join(f'{q} / {l}' for q, l in pairs)} | |")
     print(f"| loaded / quiet overruns over the rounds | {overrun_comparison(pairs)} | the interval reaches 1 or below |")
     print(f"| overruns in the calibration run record (whole run) | {run_overruns} | |")
     print(f"| e-stop round trip (client) median / max [ms], n={len(rtt)} | {ms(statistics.median(rtt))} / "
