@@ -185,8 +185,11 @@ def test_serve_refuses_a_bad_rt_priority_before_touching_anything(tmp_path):
     """One line, exit 2, no data directory created (the server never starts)."""
     import subprocess
     import sys
+
+    from api.server import free_port
     data = tmp_path / "d"
-    r = subprocess.run([sys.executable, "-m", "bench.cli", "serve", "--rt-priority", "99", "--data", str(data)],
-                       capture_output=True, text=True, timeout=120)
+    # a free port: on 8000 another server (a technician's own `bench serve`) would be refused first
+    r = subprocess.run([sys.executable, "-m", "bench.cli", "serve", "--rt-priority", "99", "--data", str(data),
+                        "--port", str(free_port())], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and r.stderr.strip() == "error: rt_priority must be 0 (off) to 98, got 99", r.stderr
     assert "Traceback" not in r.stderr and not data.exists()
