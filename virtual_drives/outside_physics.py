@@ -9,8 +9,8 @@ joint's own friction and excitation:
   feels tau (1 - k (tau / tau_max)^2) (k 0.1-0.2).  Under a sine it is a cubic of the phase, so a
   position series can pass for it.
 - ``nonlinear_viscous``: viscous friction grows like |v|^beta (beta 0.4-0.6) instead of
-  linearly, an extra term c (|v|^beta - (|v| / v_ref)^1 v_ref^beta) sgn v that vanishes at 0 and
-  at the reference speed, 5-15 % of Fc in between.
+  linearly, an extra term c ((|v| / v_ref)^beta - |v| / v_ref) sgn v that vanishes at 0 and at the
+  reference speed (the sine test's top speed), peaking at 3-8 % of the friction at that speed.
 - ``position_spring``: a cable carrier or a spring pulls the joint towards one end of its
   travel, k (q - q_0), 4-10 % of Fc at the ends (not periodic, not gravity's sine).
 
@@ -53,8 +53,13 @@ def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0
         extra = lambda q, v, tau: -k * tau * (tau / A) ** 2  # noqa: E731
     elif kind == "nonlinear_viscous":
         beta = rng.uniform(0.4, 0.6)
-        c = rng.uniform(0.05, 0.15) * Fc / (1.0 - beta ** (beta / (1.0 - beta)) * (1 - beta))
-        text = f"viscous friction ~ |v|^{beta:.2f}, {c / Fc:.2f} Fc"
+        # a deviation from linear viscous friction, so sized against the friction at the
+        # reference speed (Fc + sigma2 v_ref: 3 Fc on most joints, 21 Fc on the viscous-dominated
+        # rotary motor, where a share of Fc alone would hide under the viscous level);
+        # c (x^beta - x) peaks at x = beta^(1/(1-beta)) with c beta^(beta/(1-beta)) (1-beta)
+        level = Fc + spec.friction.sigma2 * v_ref
+        c = rng.uniform(0.03, 0.08) * level / (beta ** (beta / (1.0 - beta)) * (1 - beta))
+        text = f"viscous friction ~ |v|^{beta:.2f}, peak {c * beta ** (beta / (1.0 - beta)) * (1 - beta) / Fc:.2f} Fc"
 
         def extra(q, v, tau):
             x = abs(v) / v_ref
