@@ -238,7 +238,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
     baseline_rms = cur.rms
     for e in forced:
         if not e.applicable(cur.ctx):
-            raise InputError(f"effect {e.name} does not apply to a {meta.get('joint_type', 'revolute')} joint")
+            raise InputError(f"effect {e.name} does not apply to {e.inapplicable(cur.ctx)}")
     steps: list[Step] = []
     contexts: list[Context] = [cur.ctx]
     rejected: set[str] = set()   # refitted, but the held-out error did not fall

@@ -108,6 +108,10 @@ class Effect:
     def applicable(self, ctx: Context) -> bool:
         return True
 
+    def inapplicable(self, ctx: Context) -> str:
+        """What kind of record ``applicable`` refuses, for --add's one-line error."""
+        return f"a {ctx.meta.get('joint_type', 'revolute')} joint"
+
     def variants(self, ctx: Context) -> list[dict]:
         """Candidate starting values (the effect at zero strength, with any searched
         hyper-parameters).  Several variants compete, e.g. numbers of harmonics."""

@@ -53,13 +53,25 @@ def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int
     return out
 
 
+def load_side(meta: dict) -> bool:
+    return str(meta.get("encoder", "motor")).strip().lower() == "load"
+
+
 class GearEffect(Effect):
     load_key = ""
 
     def applicable(self, ctx: Context) -> bool:
         # the term is what eq. 5's M qdd leaves behind: a record of friction torque
-        # (inertia 0, nothing subtracted) has no such term
-        return ctx.inertia > 0
+        # (inertia 0, nothing subtracted) has no such term; and it runs the load along the
+        # *motor's* measured trajectory, so a load-side encoder would get the wrong physics
+        # credited (a load-side record is left to the verdict, which says what to record)
+        return ctx.inertia > 0 and not load_side(ctx.meta)
+
+    def inapplicable(self, ctx: Context) -> str:
+        if load_side(ctx.meta):
+            return ("a record whose encoder is on the load (`encoder: load`): the fit runs the gear "
+                    "from the motor's position, so record the motor encoder")
+        return "a friction-torque record (inertia 0): it has no M qdd term for a load to leave behind"
 
     def load_param(self, init) -> Param:
         # a load inertia is positive; it starts at zero strength, so it is bounded, not logged

@@ -8,9 +8,12 @@ import pytest
 from typer.testing import CliRunner
 
 from bench.analysis import analyze_record
+from bench.effects.inject import parse_injections
+from bench.errors import InputError
 from bench.cli import app as cli_app
+from virtual_drives.joint import simulate_record
 from virtual_drives.presets import PRESETS
-from virtual_drives.scenarios import simulate_scenario
+from virtual_drives.scenarios import random_effects, simulate_scenario
 
 HYPER = {"backlash": ("bl_width", "width"), "joint_flexibility": ("flex_frequency", "frequency")}
 
@@ -62,3 +65,26 @@ def test_the_command_line_hides_backlash_and_the_report_names_its_width(tmp_path
 def test_bad_gear_injections_are_one_line_errors(args, message, tmp_path):
     r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j1", "-o", str(tmp_path / "x.csv"), *args])
     assert r.exit_code == 2 and message in r.output and "Traceback" not in r.output, r.output
+
+
+def _load_side_record(joint, effect, seed):
+    spec = PRESETS[joint]
+    texts = random_effects(spec, [effect], seed, 20.0)
+    ev, _, _, _ = parse_injections(texts, spec)
+    return simulate_record(spec, *spec.excitation, duration=20.0, seed=seed, extra=ev, encoder="load").record, texts
+
+
+@pytest.mark.parametrize("effect,joint,seed", [("backlash", "j2", 5841), ("joint_flexibility", "j3", 5842)])
+def test_a_load_side_encoder_gets_no_gear_story_and_is_told_what_to_record(effect, joint, seed):
+    """The backlash / flexibility fit runs the gear from the motor's measured position; on a
+    load-side record (``encoder: load``) it would credit the wrong physics, so it is not tried:
+    the verdict flags the structure and says to record the motor encoder."""
+    rec, texts = _load_side_record(joint, effect, seed)
+    assert rec.meta["encoder"] == "load"
+    doc = analyze_record(rec).report()
+    assert not [d for d in doc["diagnosis"] if d["effect"] in HYPER], doc["diagnosis"][:3]
+    left = doc["unexplained"]
+    assert left["structured"], (texts, left["evidence"])
+    assert "record the motor side" in left["evidence"]
+    with pytest.raises(InputError, match="encoder is on the load"):
+        analyze_record(rec, add=[effect])

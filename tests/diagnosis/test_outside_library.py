@@ -4,6 +4,7 @@ tuning (tools/tune_noise_floor.py --outside uses 1000-1999)."""
 import pytest
 
 from bench.analysis import analyze_record
+from bench.unexplained import rising_map
 from virtual_drives.outside_physics import outside_record
 from virtual_drives.presets import PRESETS
 
@@ -40,3 +41,30 @@ def test_outside_physics_is_unexplained_and_nothing_is_credited_in_9_of_10(kind)
         if credited or doc["final"]["effects"] or not doc["unexplained"]["structured"]:
             wrong.append((joint, seed, text, credited, doc["unexplained"]["evidence"][:160]))
     assert len(wrong) <= 1, wrong
+
+
+def test_a_map_rising_from_rest_is_flagged_only_beyond_its_size_and_uncertainty():
+    # 10 % of Fc below, 7 standard errors: LuGre's Stribeck term cannot rise, it was bent
+    assert "rises from rest" in rising_map({"Fc": 100.0, "Fs": 90.0}, {"Fc": 1.0, "Fs": 1.0})
+    assert rising_map({"Fc": 100.0, "Fs": 90.0}, {"Fc": 3.0, "Fs": 3.0}) is None    # 2.4 se: noise
+    assert rising_map({"Fc": 100.0, "Fs": 98.0}, {"Fc": 0.1, "Fs": 0.1}) is None    # 2 % of Fc
+    assert rising_map({"Fc": 100.0, "Fs": 90.0}, {"Fc": None, "Fs": 1.0}) is None   # not identifiable
+    assert rising_map({"Fc": 100.0, "Fs": 120.0}, {"Fc": 1.0, "Fs": 1.0}) is None   # a Stribeck dip
+    assert rising_map({"Fc": 100.0, "Fs": 0.3}, {"Fc": 1.0, "Fs": 1.0}) is None     # degenerate fit
+
+
+def test_weak_nonlinear_viscous_friction_is_flagged_by_the_map_it_bends():
+    """Below the size at which its residual is structured (peaks of 1-2.5 % of the friction at
+    speed), LuGre absorbs |v|^beta by fitting Fs below Fc (a map rising from rest).  On tuning
+    seeds 4 of 6 such records on j1-j3 and fresh seeds 8960-8968 4 of 9 were flagged by that
+    alone (README known limits); the bar here is set below those rates, and a library effect
+    credited would be a wrong story."""
+    flagged, credited = 0, []
+    for i in range(6):
+        joint = ("j1", "j2")[i % 2]
+        rec, text = outside_record(PRESETS[joint], "nonlinear_viscous", 5960 + i, size=(0.01, 0.025))
+        doc = analyze_record(rec).report()
+        credited += [(joint, text, d["effect"]) for d in doc["diagnosis"] if d["significant"]]
+        flagged += doc["unexplained"]["rising_map"] and doc["unexplained"]["structured"]
+    assert not credited, credited
+    assert flagged >= 2, flagged
