@@ -53,6 +53,12 @@ class Analysis:
                                    for k in LUGRE_KEYS}
             doc["fit"] = dict(doc["fit"], rms_error=final.rms, nrmse=final.nrmse,
                               fit_percent=100.0 * (1.0 - final.nrmse))
+            # the LuGre-only fit's "not identifiable" warnings speak of the baseline: the
+            # model with its effects (an offset absorbed into Fc, say) may pin them down
+            doc["baseline"]["warnings"] = doc.get("warnings", [])
+            doc["warnings"] = [w for w in doc["baseline"]["warnings"]
+                               if not any(w.startswith(f"{k} is not identifiable") and doc["identifiable"][k]
+                                          for k in LUGRE_KEYS)]
         doc["diagnosis"] = d.entries()
         doc["final"] = {"effects": d.model.names(),
                         "parameters": {k: float(v) for k, v in d.model.values.items()},
