@@ -33,8 +33,8 @@ KINDS = ("saturating_torque_constant", "nonlinear_viscous", "position_spring")
 def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0,
                    dt: float = 1e-3, size: tuple[float, float] | None = None) -> tuple[Record, str]:
     """A record of ``spec`` under its sine test with physics ``kind`` hidden.  Returns the
-    record and a description of what was hidden.  ``size``: the range the magnitude is drawn
-    from, instead of the kind's own (as a share of what the module docstring says)."""
+    record and a description of what was hidden.  ``size`` (``nonlinear_viscous`` only): the
+    range its peak is drawn from, as a share of the friction at the reference speed."""
     rng = np.random.default_rng([seed, 29])
     A, f = spec.excitation
     n = int(round(duration / dt))
@@ -59,8 +59,9 @@ def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0
         # rotary motor, where a share of Fc alone would hide under the viscous level);
         # c (x^beta - x) peaks at x = beta^(1/(1-beta)) with c beta^(beta/(1-beta)) (1-beta)
         level = Fc + spec.friction.sigma2 * v_ref
-        c = rng.uniform(*(size or (0.03, 0.08))) * level / (beta ** (beta / (1.0 - beta)) * (1 - beta))
-        text = f"viscous friction ~ |v|^{beta:.2f}, peak {c * beta ** (beta / (1.0 - beta)) * (1 - beta) / Fc:.2f} Fc"
+        peak = rng.uniform(*(size or (0.03, 0.08))) * level
+        c = peak / (beta ** (beta / (1.0 - beta)) * (1 - beta))
+        text = f"viscous friction ~ |v|^{beta:.2f}, peak {peak / Fc:.2f} Fc"
 
         def extra(q, v, tau):
             x = abs(v) / v_ref

@@ -8,9 +8,9 @@ import pytest
 from typer.testing import CliRunner
 
 from bench.analysis import analyze_record
+from bench.cli import app as cli_app
 from bench.effects.inject import parse_injections
 from bench.errors import InputError
-from bench.cli import app as cli_app
 from virtual_drives.joint import simulate_record
 from virtual_drives.presets import PRESETS
 from virtual_drives.scenarios import random_effects, simulate_scenario
