@@ -7,6 +7,10 @@
    accuracy (both measured against a 64-sub-step reference of the same physics).
 2. Wall time of identification and of the full analysis (diagnosis included) on 20 s and
    60 s records at 1 kHz, in-process and through the CLI (process start included).
+3. A long log as a PC logger writes it (issue 11): `bench analyze` on 10 minutes at ~500 Hz
+   with jittered timestamps, dropped samples and stalls (a sine test, and a torque-sensing
+   arm's PD log with a friction column), wall time and the process's peak memory, side by
+   side with the 60 s record at 1 kHz.
 """
 from __future__ import annotations
 
@@ -130,10 +134,57 @@ def analyze_rows():
     return rows
 
 
+# a child that runs a command and reports the command's own peak resident memory (the
+# RUSAGE_CHILDREN of a fresh process holds only that command)
+_PEAK = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, capture_output=True); "
+         "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+
+
+def cli_peak(cmd: list[str]) -> tuple[float, float]:
+    """(wall seconds, peak resident MB) of a CLI command, process start included."""
+    t = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", _PEAK, *cmd], capture_output=True, text=True, check=True)
+    return time.perf_counter() - t, int(out.stdout.split()[-1]) / 1024.0
+
+
+def long_log_rows():
+    """10-minute logs at ~500 Hz with a PC logger's jitter, as files, through the CLI."""
+    rows = []
+    bench = [sys.executable, "-m", "bench.cli"]
+    with tempfile.TemporaryDirectory() as d:
+        cases = [
+            ("j1, 60 s at 1 kHz, evenly sampled (the reference row)",
+             ["--joint", "j1", "--duration", "60", "--seed", "7003"], "<= 10 s"),
+            ("j1, 10-minute log, ~500 Hz with jitter, drops and stalls (torque sine)",
+             ["--joint", "j1", "--duration", "600", "--logger", "--logger-step", "0.002", "--seed", "7004"],
+             "<= 60 s, < 2 GB"),
+            ("j1, 10-minute log as above with 3 mrad of hidden backlash (found)",
+             ["--joint", "j1", "--duration", "600", "--logger", "--logger-step", "0.002", "--seed", "7006",
+              "--effect", "backlash:width=0.003"], "<= 60 s, < 2 GB"),
+            ("j1, 10-minute robot joint log (PD, friction column, ~500 Hz logger)",
+             ["--joint", "j1", "--duration", "600", "--condition", "robot joint log", "--logger-step", "0.002",
+              "--seed", "7005"], "<= 60 s, < 2 GB"),
+        ]
+        for label, args, target in cases:
+            path = os.path.join(d, "log.csv")
+            subprocess.run(bench + ["simulate", *args, "-o", path], capture_output=True, check=True)
+            n = sum(1 for line in open(path) if line[:1].isdigit())
+            cmd = bench + ["analyze", path, "--json", os.path.join(d, "o.json")]
+            wall, peak = cli_peak(cmd)
+            rows.append((f"`bench analyze` CLI with diagnosis, {label}: {n:,} samples",
+                         f"{wall:.1f} s, peak {peak:,.0f} MB", "", target))
+    return rows
+
+
 def main():
+    print(f"load average {os.getloadavg()[0]:.1f}")
     print("| benchmark | result | accuracy | target |")
     print("|---|---|---|---|")
-    for row in simulation_rows() + analyze_rows():
+    if "--long-only" in sys.argv:
+        for row in long_log_rows():
+            print("| " + " | ".join(row) + " |", flush=True)
+        return
+    for row in simulation_rows() + analyze_rows() + long_log_rows():
         print("| " + " | ".join(row) + " |", flush=True)
 
 
