@@ -48,6 +48,8 @@ class FitData:
     # the Coulomb level read off the map's high-speed line (eq. 8): the scale of "worth naming",
     # robust where a distorted dynamic fit is not
     coulomb: float = float("nan")
+    # predict()'s memory of its last filtered LuGre traces (keyed by the values they depend on)
+    cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def n(self) -> int:
@@ -70,7 +72,13 @@ Applier = Callable[[dict, dict, np.ndarray], None]
 
 
 def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.ndarray:
-    """Model friction, filtered like the measurement, at every sample."""
+    """Model friction, filtered like the measurement, at every sample.
+
+    The filters are linear, so the model is filtered term by term: the LuGre trace (which
+    depends on the LuGre values and the level / viscous multipliers only) is remembered for
+    the last few values, and the additive torque is a weighted sum of filtered columns.  A
+    least-squares Jacobian that steps an additive coefficient or a load inertia then costs no
+    simulation at all, and one that steps a LuGre value no re-evaluation of the terms."""
     lugre = {k: values[k] for k in LUGRE_KEYS}
     lugre["delta"] = values.get("delta", 1.0)
     ev = terms.empty()
@@ -79,16 +87,13 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     for apply in appliers:
         apply(values, extra, ev)
     c = data.c
-    if appliers:
-        add, _, _ = terms.effect_terms(c.q_full, c.q_full * 0.0, c.t_full, ev)
-        _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
-        level = np.ascontiguousarray(np.maximum(level, 1e-6))
-        visc = np.ascontiguousarray(visc)
-    else:  # plain LuGre: skip the term evaluation
-        add = None
-        level = visc = _ones(len(c.v_mid))
-    F = _lugre_samples(data, lugre, level, visc)
-    out = c.lowpass(F if add is None else F + add)
+    out = _filtered_lugre(data, lugre, ev)
+    coef = ev[list(terms.ADDITIVE_SLOTS)]
+    if coef[:3].any():
+        out = out + coef[:3] @ _filtered_columns(c, "base", lambda q: terms.additive_columns(q, 0.0)[:3])
+    if coef[3:].any():
+        pitch = float(ev[terms.COG_PITCH])
+        out = out + coef[3:] @ _filtered_columns(c, pitch, lambda q: terms.cogging_columns(q, pitch))
     if extra["inertia_error"]:
         out = out + extra["inertia_error"] * c.a
     if extra["torque_lag"]:
@@ -101,6 +106,47 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         out = out + extra["load_inertia"] * gear_term(c, extra["backlash"],
                                                       extra["flex_frequency"], extra["flex_damping"])
     return out
+
+
+def _remember(cache: dict, key, make, size: int):
+    """``cache[key]``, made by ``make()`` when missing; the oldest entries go beyond ``size``."""
+    hit = cache.get(key)
+    if hit is None:
+        hit = cache[key] = make()
+        while len(cache) > size:
+            cache.pop(next(iter(cache)))
+    return hit
+
+
+def _filtered_lugre(data: FitData, lugre: dict, ev: np.ndarray) -> np.ndarray:
+    """The LuGre friction with the terms' level and viscous multipliers, filtered.  Remembered
+    for the last few values: a finite-difference Jacobian steps one value at a time, and every
+    step of a non-LuGre value reuses the trace of the point it steps from."""
+    c = data.c
+    level_key = tuple(float(ev[i]) for i in terms.LEVEL_SLOTS)
+    # the bristle start z0 is set on the data by identification, so it is part of the key
+    key = (tuple(float(lugre[k]) for k in (*LUGRE_KEYS, "delta")), level_key, float(data.z0))
+
+    def make():
+        if any(level_key):
+            level, visc = _remember(data.cache.setdefault("level", {}), level_key,
+                                    lambda: _multipliers(c, ev), 4)
+        else:
+            level = visc = _ones(len(c.v_mid))
+        return c.lowpass(_lugre_samples(data, lugre, level, visc))
+    return _remember(data.cache.setdefault("lugre", {}), key, make, 4)
+
+
+def _multipliers(c: Conditioned, ev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
+    return np.ascontiguousarray(np.maximum(level, 1e-6)), np.ascontiguousarray(visc)
+
+
+def _filtered_columns(c: Conditioned, key, columns) -> np.ndarray:
+    """``columns(q)`` at the samples, each filtered: the offset and gravity columns, and those
+    of the last few cogging pitches."""
+    cache = c.__dict__.setdefault("_additive_columns", {})
+    return _remember(cache, key, lambda: np.array([c.lowpass(col) for col in columns(c.q_full)]), 4)
 
 
 def _lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray) -> np.ndarray:

@@ -14,9 +14,11 @@ from numba import njit
 from scipy import signal
 
 
-def filtfilt_segments(sos: np.ndarray, x: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """``sosfiltfilt(sos, x[a:b])`` for each (a, b) row of ``bounds``, concatenated."""
-    zi = signal.sosfilt_zi(sos)
+def filtfilt_segments(sos: np.ndarray, x: np.ndarray, bounds: np.ndarray,
+                      zi: np.ndarray | None = None) -> np.ndarray:
+    """``sosfiltfilt(sos, x[a:b])`` for each (a, b) row of ``bounds``, concatenated (``zi``:
+    ``sosfilt_zi(sos)``, when the caller keeps it)."""
+    zi = signal.sosfilt_zi(sos) if zi is None else zi
     return _filtfilt_all(np.ascontiguousarray(sos, dtype=np.float64), np.ascontiguousarray(zi),
                          np.ascontiguousarray(x, dtype=np.float64), np.asarray(bounds, dtype=np.int64),
                          3 * (2 * len(sos) + 1))

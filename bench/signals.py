@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 from scipy import signal
 
 from bench.errors import InputError
@@ -57,11 +58,23 @@ class Conditioned:
         return self.dt * self.decim
 
     def lowpass(self, x_full: np.ndarray) -> np.ndarray:
-        """Full-rate signal -> the comparison grid (CIC decimation, then zero-phase low-pass)."""
+        """Full-rate signal -> the comparison grid (CIC decimation, then zero-phase low-pass).
+        The fit calls this tens of thousands of times per record, so both stages are the
+        compiled ones (``box_average``, ``bench.segments``: scipy's ``sosfiltfilt`` algorithm
+        without its per-call checks), the filter's initial state computed once."""
         if len(self.segments) == 1:
-            return signal.sosfiltfilt(self.sos, box_average(x_full, self.decim))
-        parts = [box_average(x_full[a:b], self.decim) for a, b in self.segments]
-        return filtfilt_segments(self.sos, np.concatenate(parts), np.array(self.grid_segments))
+            x = box_average(x_full, self.decim)
+        else:
+            x = np.concatenate([box_average(x_full[a:b], self.decim) for a, b in self.segments])
+        return filtfilt_segments(self.sos, x, self._grid_bounds, self._zi)
+
+    @cached_property
+    def _grid_bounds(self) -> np.ndarray:
+        return np.array(self.grid_segments, dtype=np.int64)
+
+    @cached_property
+    def _zi(self) -> np.ndarray:
+        return np.ascontiguousarray(signal.sosfilt_zi(self.sos))
 
     def decimate(self, x_full: np.ndarray) -> np.ndarray:
         """Full-rate signal -> the grid without the low-pass (e.g. the time)."""
@@ -94,10 +107,25 @@ def box_average(x: np.ndarray, d: int, stages: int = 3) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if d == 1:
         return x
+    return _box_average(np.ascontiguousarray(x), int(d), int(stages))
+
+
+@njit(cache=True)
+def _box_average(x, d, stages):
+    # the same sums as np.cumsum (sequential), then differences d apart
     for _ in range(stages):
-        cs = np.concatenate(([0.0], np.cumsum(x)))
-        x = (cs[d:] - cs[:-d]) / d
-    return x[::d]
+        n = x.shape[0]
+        cs = np.empty(n + 1)
+        cs[0] = 0.0
+        acc = 0.0
+        for i in range(n):
+            acc += x[i]
+            cs[i + 1] = acc
+        out = np.empty(max(n + 1 - d, 0))
+        for i in range(out.shape[0]):
+            out[i] = (cs[i + d] - cs[i]) / d
+        x = out
+    return x[::d].copy()
 
 
 def excitation_frequency(t: np.ndarray, tau: np.ndarray) -> float:

@@ -22,8 +22,11 @@ load recursion along the measured motor trajectory.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
+from scipy import signal
 
 OFFSET = 0
 GRAV_SIN, GRAV_COS = 1, 2
@@ -116,6 +119,34 @@ def effect_terms(q, v, t, ev):
     return add, level, visc
 
 
+# The additive torque is linear in these slots, column by column of ``additive_columns``:
+# a fit evaluates it as a weighted sum of fixed (filtered) columns instead of re-evaluating
+# the sines at every call (``bench.fitting.predict``).  The level and viscous multipliers are
+# not linear and depend only on these slots:
+ADDITIVE_SLOTS = (OFFSET, GRAV_SIN, GRAV_COS) + tuple(range(COG_COEF, COG_COEF + 2 * COG_HARMONICS))
+LEVEL_SLOTS = (ASYM, PF_PITCH) + tuple(range(PF_COEF, PF_COEF + 2 * PF_HARMONICS)) + (THERM_GAIN, THERM_TAU)
+
+
+def additive_columns(q: np.ndarray, cog_pitch: float) -> np.ndarray:
+    """The additive torque's columns at positions ``q``, in the order of ``ADDITIVE_SLOTS``:
+    1, sin q, cos q, then the cogging columns.  ``effect_terms``' additive torque is
+    ``additive_columns(q, pitch) @ ev[ADDITIVE_SLOTS]``."""
+    q = np.asarray(q, dtype=float)
+    return np.vstack([np.ones_like(q), np.sin(q), np.cos(q), cogging_columns(q, cog_pitch)])
+
+
+def cogging_columns(q: np.ndarray, pitch: float) -> np.ndarray:
+    """sin(k w q), cos(k w q) for the cogging harmonics, w = 2 pi / pitch (zero without one)."""
+    q = np.asarray(q, dtype=float)
+    cols = np.zeros((2 * COG_HARMONICS, len(q)))
+    if pitch > 0.0:
+        w = 2.0 * np.pi / pitch
+        for k in range(COG_HARMONICS):
+            cols[2 * k] = np.sin((k + 1) * w * q)
+            cols[2 * k + 1] = np.cos((k + 1) * w * q)
+    return cols
+
+
 @njit(cache=True)
 def load_step(ql, vl, qm0, qm1, h, gap, w2, c2):
     """Advance the load over h while the motor moves linearly from qm0 to qm1 (its velocity
@@ -161,3 +192,23 @@ def load_trajectory(qm, dt, n_sub, gap, w2, c2):
                 a1 = qm[i] + (qm[i + 1] - qm[i]) * (j + 1) / n_sub
                 q, v = load_step(q, v, a0, a1, h, gap, w2, c2)
     return ql
+
+
+def spring_deflection(acc: np.ndarray, h: float, w2: float, c2: float) -> tuple[np.ndarray, np.ndarray]:
+    """The gear spring's deflection e = q_m - q_l and its rate, seen from the load: the load
+    has no friction of its own, so its equation M_l qdd_l = M_l (w2 e + c2 e') gives e from
+    the load's acceleration ``acc`` (samples h apart).  A first-order filter with pole
+    w2 / c2 (= w / 2 zeta, above the resonance), integrated exactly for an input linear
+    between samples, started at the static deflection.  Used when the encoder is on the
+    load (``bench.fitting``)."""
+    lam = w2 / c2
+    x = lam * h
+    E = math.exp(-x)
+    phi1 = -math.expm1(-x) / lam                      # integral of exp(-lam (h - s)) over the step
+    chi = phi1 - (-math.expm1(-x) - x * E) / (lam * lam * h)   # ... weighted by s / h
+    u = np.asarray(acc, dtype=float) / c2
+    b, a = [chi, phi1 - chi], [1.0, -E]
+    if len(u) == 0:
+        return u.copy(), u.copy()
+    e, _ = signal.lfilter(b, a, u, zi=signal.lfilter_zi(b, a) * u[0])
+    return e, u - lam * e
