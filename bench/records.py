@@ -61,12 +61,6 @@ class Record:
         return None if m is None else float(m)
 
     @property
-    def load_encoder(self) -> bool:
-        """Is the encoder on the load side of the gear (``encoder: load``)?  Motor side by
-        default, as on most geared joints."""
-        return str(self.meta.get("encoder", "motor")).strip().lower() == "load"
-
-    @property
     def joint_type(self) -> str:
         return str(self.meta.get("joint_type", "revolute"))
 

@@ -16,17 +16,19 @@ The joint's mechanics beyond a rigid body are slots too (zero = rigid, today's p
     FLEX_FREQ   locked-rotor resonance of the gear's spring [Hz] (0: a stiff contact, see below)
     FLEX_DAMP   its damping ratio
     LOAD_FRAC   share of the joint inertia on the load side of the gear
+    LOAD_FRICTION  share of the joint's friction on the load side (output bearing, gear
+                mesh): the motor carries (1 - share) F(v_motor), the load share F(v_load),
+                the same LuGre law on each side's own velocity and bristle state
 The coupling (``coupling``, ``load_step``) is written once here: the virtual drives
 integrate the two-mass joint with it, and the backlash / flexibility effects run the same
 load recursion along the measured motor trajectory.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
-from scipy import signal
+
+from bench.lugre import bristle_step, stribeck_level
 
 OFFSET = 0
 GRAV_SIN, GRAV_COS = 1, 2
@@ -38,8 +40,8 @@ PF_COEF = 11          # 2 harmonics x (sin, cos): slots 11..14
 PF_HARMONICS = 2
 ASYM = 15
 THERM_GAIN, THERM_TAU = 16, 17
-BACKLASH, FLEX_FREQ, FLEX_DAMP, LOAD_FRAC = 18, 19, 20, 21
-SIZE = 22
+BACKLASH, FLEX_FREQ, FLEX_DAMP, LOAD_FRAC, LOAD_FRICTION = 18, 19, 20, 21, 22
+SIZE = 23
 
 # Backlash without a declared flexibility: the teeth meet through a stiff, well damped
 # spring-damper rather than an impact law.  An impact needs event detection inside a step,
@@ -194,21 +196,68 @@ def load_trajectory(qm, dt, n_sub, gap, w2, c2):
     return ql
 
 
-def spring_deflection(acc: np.ndarray, h: float, w2: float, c2: float) -> tuple[np.ndarray, np.ndarray]:
-    """The gear spring's deflection e = q_m - q_l and its rate, seen from the load: the load
-    has no friction of its own, so its equation M_l qdd_l = M_l (w2 e + c2 e') gives e from
-    the load's acceleration ``acc`` (samples h apart).  A first-order filter with pole
-    w2 / c2 (= w / 2 zeta, above the resonance), integrated exactly for an input linear
-    between samples, started at the static deflection.  Used when the encoder is on the
-    load (``bench.fitting``)."""
-    lam = w2 / c2
-    x = lam * h
-    E = math.exp(-x)
-    phi1 = -math.expm1(-x) / lam                      # integral of exp(-lam (h - s)) over the step
-    chi = phi1 - (-math.expm1(-x) - x * E) / (lam * lam * h)   # ... weighted by s / h
-    u = np.asarray(acc, dtype=float) / c2
-    b, a = [chi, phi1 - chi], [1.0, -E]
-    if len(u) == 0:
-        return u.copy(), u.copy()
-    e, _ = signal.lfilter(b, a, u, zi=signal.lfilter_zi(b, a) * u[0])
-    return e, u - lam * e
+@njit(cache=True)
+def load_step_friction(ql, vl, zl, qm0, qm1, h, gap, w2, c2, p, kappa):
+    """``load_step`` for a load with friction of its own: M_l qdd_l = coupling - share F(v_l),
+    written per unit load inertia with ``kappa`` = share / M_l; F is the joint's LuGre law
+    (``p`` in the kernels' order) on the load's velocity and bristle state ``zl``, the bristle
+    integrated exactly over the step with the midpoint velocity held (as the motor's).  The
+    implicit midpoint equation is solved for the end velocity by a secant iteration (the
+    friction is monotone in it), the contact regime re-read at each iterate.  Returns (q_l,
+    v_l, z_l, the mean friction over the step)."""
+    Fc, Fs, alpha, delta, s0, s1, s2 = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
+    vm = (qm1 - qm0) / h
+    D0 = 0.5 * (qm0 + qm1) - ql - 0.25 * h * vl
+    V0 = vm - 0.5 * vl
+    chord_f = kappa * 0.5 * (0.5 * s0 * h + s1 + s2)
+    chord_c = 0.25 * h * w2 + 0.5 * c2
+    v1 = vl
+    v_prev = vl
+    g_prev = 0.0
+    z1, F = zl, 0.0
+    for it in range(30):
+        d = D0 - 0.25 * h * v1
+        side = 1 if d > gap else (-1 if d < -gap else 0)
+        if gap == 0.0:
+            side = 1
+        coup = 0.0 if side == 0 else w2 * (d - side * gap) + c2 * (V0 - 0.5 * v1)
+        vh = 0.5 * (vl + v1)
+        z1, zbar = bristle_step(zl, vh, h, stribeck_level(vh, Fc, Fs, alpha, delta), s0)
+        F = s0 * zbar + s1 * (z1 - zl) / h + s2 * vh
+        g = v1 - vl - h * (coup - kappa * F)
+        slope = 1.0 + h * (chord_f + (chord_c if side != 0 else 0.0))
+        if it > 0 and v1 != v_prev:
+            sec = (g - g_prev) / (v1 - v_prev)
+            if 0.1 * slope < sec < 10.0 * slope:
+                slope = sec
+        dv = g / slope
+        v_prev, g_prev = v1, g
+        v1 = v1 - dv
+        # as the motor's step: the bristle state and friction of the last iterate are kept
+        # (the last correction is below 1e-9 of the velocity)
+        if abs(dv) <= 1e-12 + 1e-9 * abs(v1):
+            break
+    return ql + h * 0.5 * (vl + v1), v1, z1, F
+
+
+@njit(cache=True)
+def load_trajectory_friction(qm, dt, n_sub, gap, w2, c2, p, kappa, z0):
+    """``load_trajectory`` for a load with friction (``load_step_friction``): the load's
+    position at the samples, and its mean friction F(v_l) over each sample interval (per unit
+    share), starting at rest with bristle state ``z0``."""
+    n = qm.shape[0]
+    ql = np.empty(n)
+    Fi = np.zeros(max(n - 1, 0))
+    q, v, z = qm[0], 0.0, z0
+    h = dt / n_sub
+    for i in range(n):
+        ql[i] = q
+        if i + 1 < n:
+            acc = 0.0
+            for j in range(n_sub):
+                a0 = qm[i] + (qm[i + 1] - qm[i]) * j / n_sub
+                a1 = qm[i] + (qm[i + 1] - qm[i]) * (j + 1) / n_sub
+                q, v, z, F = load_step_friction(q, v, z, a0, a1, h, gap, w2, c2, p, kappa)
+                acc += F
+            Fi[i] = acc / n_sub
+    return ql, Fi

@@ -59,6 +59,7 @@ class JointState:
     z: float = 0.0
     q_load: float = 0.0       # geared joints only: the load beyond the gear
     v_load: float = 0.0
+    z_load: float = 0.0       # ... and its bristle state, when it carries friction
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,8 @@ class Gear:
         M_motor = spec.inertia - M_load
         gap, w2, c2 = terms.coupling(ev)
         f = spec.friction
-        n_sub = two_mass_substeps(dt, M_motor, M_load, w2, c2, f.sigma0, f.sigma1, f.sigma2)
+        n_sub = two_mass_substeps(dt, M_motor, M_load, w2, c2, f.sigma0, f.sigma1, f.sigma2,
+                                  load_friction=float(ev[terms.LOAD_FRICTION]))
         return cls(M_motor, M_load, gap, w2, c2, n_sub)
 
 
@@ -123,10 +125,11 @@ class VirtualJoint:
                                         self.ev, s.q, s.v, s.z, s.t)
             self.state = JointState(t=s.t + periods * self.dt, q=q, v=v, z=z, q_load=q, v_load=v)
         else:
-            *_, q, v, z, ql, vl = simulate_two_mass(
+            *_, q, v, z, ql, vl, zl = simulate_two_mass(
                 cmd, self.dt, g.n_sub, g.M_motor, g.M_load, self.p, self.ev, g.gap, g.w2, g.c2,
-                s.q, s.v, s.z, s.q_load, s.v_load, s.t)
-            self.state = JointState(t=s.t + periods * self.dt, q=q, v=v, z=z, q_load=ql, v_load=vl)
+                s.q, s.v, s.z, s.q_load, s.v_load, s.t, s.z_load)
+            self.state = JointState(t=s.t + periods * self.dt, q=q, v=v, z=z, q_load=ql, v_load=vl,
+                                    z_load=zl)
         self.applied_torque = float(tau)
         return self.state
 

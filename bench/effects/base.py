@@ -139,6 +139,12 @@ class Effect:
         """Does the effect's physics hold once fitted (``ctx``: the fitted model's state)?"""
         return True
 
+    def whole_only(self, values: dict) -> str:
+        """Why the effect, with these values, is credited only when the final model leaves
+        nothing structured (a model flexible enough to absorb part of other physics); empty
+        when it may stand beside something unexplained."""
+        return ""
+
     def apply(self, values: dict, extra: dict, ev: np.ndarray) -> None:
         raise NotImplementedError
 

@@ -40,8 +40,9 @@ class JointFlexibility(GearEffect):
     name = "joint_flexibility"
     signals = ("travel_since_reversal",)
     summary = "two-mass joint: a gear spring between motor and load"
-    hyper = ("flex_frequency",)
+    hyper = ("flex_frequency", "flex_kappa")
     load_key = "flex_load"
+    kappa_key = "flex_kappa"
 
     def variants(self, ctx: Context) -> list[dict]:
         c = ctx.data.c
@@ -51,14 +52,14 @@ class JointFlexibility(GearEffect):
         if hi <= lo:
             return []
         grid = [(0.0, f, DEFAULT_DAMPING) for f in np.geomspace(lo, hi, 14)]
-        return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0}
-                for _, f, z in best_gears(ctx, grid, dampings=(0.02, 0.1, 0.2))]
+        return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0, "flex_kappa": k}
+                for _, f, z, k in best_gears(ctx, grid, dampings=(0.02, 0.1, 0.2))]
 
     def params(self, init):
         return [Param("flex_frequency", init["flex_frequency"], log=True),
                 Param("flex_damping", init["flex_damping"], log=True,
                       lo=math.log(MIN_DAMPING), hi=math.log(1.0)),
-                self.load_param(init)]
+                self.load_param(init)] + self.kappa_params(init)
 
     def fd_step(self, key, ctx):
         if key == "flex_damping":
@@ -68,22 +69,25 @@ class JointFlexibility(GearEffect):
     def credible(self, values, ctx):
         return (values["flex_frequency"] <= ctx.data.c.cutoff
                 and 1.1 * MIN_DAMPING < values["flex_damping"] <= MAX_DAMPING
-                and values["flex_load"] >= MIN_LOAD_SHARE * ctx.inertia)
+                and values["flex_load"] >= MIN_LOAD_SHARE * ctx.inertia
+                and self.gear_credible(values, ctx))
 
     def apply(self, values, extra, ev):
         extra["flex_frequency"] = values["flex_frequency"]
         extra["flex_damping"] = values["flex_damping"]
         extra["load_inertia"] += values["flex_load"]
+        self.apply_kappa(values, extra)
 
     def evidence(self, values, explained, ctx):
         f, zeta = values["flex_frequency"], values["flex_damping"]
         return (f"the joint is compliant: a resonance at {f:.3g} Hz (locked rotor) with damping "
-                f"ratio {zeta:.2g} rings at friction transitions ({self.load_share(values, ctx)}); "
+                f"ratio {zeta:.2g} rings at friction transitions ({self.load_share(values, ctx)}"
+                f"{self.friction_text(values)}); "
                 f"keep the position loop's bandwidth well below it (about {f / 3:.2g} Hz) or add "
                 f"a notch / load-side feedback; {explained_text(explained)}")
 
     def inject(self, kw, ev, spec):
-        check_known(kw, ("frequency", "damping", "load_fraction"), self.name)
+        check_known(kw, ("frequency", "damping", "load_fraction", "load_friction"), self.name)
         f = number(kw, "frequency", self.name)
         zeta = number(kw, "damping", self.name, DEFAULT_DAMPING)
         if not f > 0:

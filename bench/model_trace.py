@@ -1,0 +1,101 @@
+"""The model's friction along a record, filtered like the measurement: the LuGre trace
+(``bench.lugre.friction_trace`` along the measured velocity, segment by segment) with the terms'
+level and viscous multipliers, and the additive terms' filtered columns.  The fit
+(``bench.fitting.predict``) asks for these tens of thousands of times per record, so each is
+remembered for the last few values it depends on."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bench import terms
+from bench.lugre import PARAMETER_NAMES, friction_trace, interval_to_samples
+from bench.signals import Conditioned
+
+if TYPE_CHECKING:
+    from bench.fitting import FitData
+
+_ONES: dict[int, np.ndarray] = {}
+
+
+def ones(n: int) -> np.ndarray:
+    if n not in _ONES:
+        _ONES.clear()
+        _ONES[n] = np.ones(n)
+    return _ONES[n]
+
+
+def remember(cache: dict, key, make, size: int):
+    """``cache[key]``, made by ``make()`` when missing; the oldest entries go beyond ``size``."""
+    hit = cache.get(key)
+    if hit is None:
+        hit = cache[key] = make()
+        while len(cache) > size:
+            cache.pop(next(iter(cache)))
+    return hit
+
+
+def filtered_lugre(data: FitData, lugre: dict) -> np.ndarray:
+    """The plain LuGre friction of ``lugre`` (with "delta"), filtered like the measurement."""
+    return filtered_terms_lugre(data, lugre, terms.empty())
+
+
+def filtered_terms_lugre(data: FitData, lugre: dict, ev: np.ndarray) -> np.ndarray:
+    """The LuGre friction with the terms' level and viscous multipliers, filtered.  Remembered
+    for the last few values: a finite-difference Jacobian steps one value at a time, and every
+    step of a non-LuGre value reuses the trace of the point it steps from."""
+    c = data.c
+    level_key = tuple(float(ev[i]) for i in terms.LEVEL_SLOTS)
+    # the bristle start z0 is set on the data by identification, so it is part of the key
+    key = (tuple(float(lugre[k]) for k in (*PARAMETER_NAMES, "delta")), level_key, float(data.z0))
+
+    def make():
+        if any(level_key):
+            level, visc = remember(data.cache.setdefault("level", {}), level_key,
+                                    lambda: multipliers(c, ev), 4)
+        else:
+            level = visc = ones(len(c.v_mid))
+        return c.lowpass(lugre_samples(data, lugre, level, visc))
+    return remember(data.cache.setdefault("lugre", {}), key, make, 4)
+
+
+def multipliers(c: Conditioned, ev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
+    return np.ascontiguousarray(np.maximum(level, 1e-6)), np.ascontiguousarray(visc)
+
+
+def filtered_columns(c: Conditioned, key, columns) -> np.ndarray:
+    """``columns(q)`` at the samples, each filtered: the offset and gravity columns, and those
+    of the last few cogging pitches."""
+    cache = c.__dict__.setdefault("_additive_columns", {})
+    return remember(cache, key, lambda: np.array([c.lowpass(col) for col in columns(c.q_full)]), 4)
+
+
+def lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray,
+                   v: np.ndarray | None = None) -> np.ndarray:
+    """LuGre friction at the full-rate samples, simulated segment by segment: the bristle
+    state restarts at each segment (a gap hides what it did), from the friction estimate at
+    the segment's start as for the first (``data.z0``).  Along the motor's velocity, or ``v``
+    (held over each interval, as ``c.v_mid``)."""
+    c = data.c
+    v = c.v_mid if v is None else v
+    args = (p["Fc"], p["Fs"], p["alpha"], p["delta"], p["sigma0"], p["sigma1"], p["sigma2"])
+    if len(c.segments) == 1:
+        F, _ = friction_trace(v, c.dt, data.z0, *args, level, visc)
+        return interval_to_samples(F)
+    parts = []
+    for k, ((a, b), (g, _)) in enumerate(zip(c.interval_segments, c.grid_segments)):
+        z0 = segment_z0(data, p, k, g)
+        F, _ = friction_trace(v[a:b], c.dt, z0, *args, level[a:b], visc[a:b])
+        parts.append(interval_to_samples(F) if b > a else np.zeros(1))
+    return np.concatenate(parts)
+
+
+def segment_z0(data: FitData, p: dict, k: int, g: int) -> float:
+    """The bristle state a segment starts from: the first from identification's ``z0``, the
+    others from the friction estimate at their start (grid index ``g``)."""
+    if k == 0:
+        return data.z0
+    lim = p["Fs"] / p["sigma0"]
+    return float(np.clip(data.friction[min(g, len(data.friction) - 1)] / p["sigma0"], -lim, lim))

@@ -1,0 +1,134 @@
+"""A joint simulator written apart from the project's physics, for tests that must not pass
+only on our own generator.
+
+Nothing here comes from ``virtual_drives`` or ``bench.lugre``/``bench.terms``: the state
+(motor angle and speed, bristle deflection, load angle and speed) is integrated by classic
+fourth-order Runge-Kutta at a fine fixed step, the gear's dead zone and spring written out
+directly, the disturbance an Ornstein-Uhlenbeck process inside the integration, the record
+sampled the way a logger would (jittered instants, lost samples, a quantised encoder, a noisy
+torque reading).  Conventions differ on purpose where physics allows it: the contact between
+the teeth is an underdamped spring, not the virtual joint's critically damped one, and the
+friction may sit on the motor, on the load, or be shared.
+
+Only ``LuGreParams`` and ``JointSpec`` (plain data) and ``Record`` (the file format) are
+borrowed."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bench.records import Record
+
+
+@njit(cache=True)
+def _rates(x, u, d, P):
+    """d/dt of (q_m, v_m, z_m, q_l, v_l, z_l).  P: Fc, Fs, alpha, sigma0, sigma1, sigma2,
+    J_m, J_l, half gap, stiffness, damping, geared, share of friction on the load."""
+    Fc, Fs, al, s0, s1, s2 = P[0], P[1], P[2], P[3], P[4], P[5]
+    Jm, Jl, gap, k, c, geared, share = P[6], P[7], P[8], P[9], P[10], P[11], P[12]
+    out = np.zeros(6)
+    vm, vl = x[1], x[4]
+    # LuGre on the motor's velocity
+    g = Fc + (Fs - Fc) * math.exp(-abs(al * vm))
+    zdm = vm - s0 * abs(vm) / g * x[2]
+    Fm = s0 * x[2] + s1 * zdm + s2 * vm
+    out[2] = zdm
+    if geared == 0.0:
+        out[0] = vm
+        out[1] = (u + d - Fm) / (Jm + Jl)
+        return out
+    # ... and on the load's
+    g = Fc + (Fs - Fc) * math.exp(-abs(al * vl))
+    zdl = vl - s0 * abs(vl) / g * x[5]
+    Fl = s0 * x[5] + s1 * zdl + s2 * vl
+    out[5] = zdl
+    e = x[0] - x[3]
+    if e > gap:
+        T = k * (e - gap) + c * (vm - vl)
+    elif e < -gap:
+        T = k * (e + gap) + c * (vm - vl)
+    else:
+        T = 0.0
+    out[0] = vm
+    out[1] = (u + d - (1.0 - share) * Fm - T) / Jm
+    out[3] = vl
+    out[4] = (T - share * Fl) / Jl
+    return out
+
+
+@njit(cache=True)
+def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0):
+    np.random.seed(seed)
+    n = u.shape[0]
+    path = np.empty((n * n_sub + 1, 2))
+    x = x0.copy()
+    path[0, 0], path[0, 1] = x[0], x[3]
+    a = math.exp(-h / dist_tau) if dist_tau > 0 else 0.0
+    d = 0.0
+    for i in range(n):
+        for j in range(n_sub):
+            if dist_std > 0:
+                d = a * d + dist_std * math.sqrt(1.0 - a * a) * np.random.randn()
+            k1 = _rates(x, u[i], d, P)
+            k2 = _rates(x + 0.5 * h * k1, u[i], d, P)
+            k3 = _rates(x + 0.5 * h * k2, u[i], d, P)
+            k4 = _rates(x + h * k3, u[i], d, P)
+            x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            m = i * n_sub + j + 1
+            path[m, 0], path[m, 1] = x[0], x[3]
+    return path
+
+
+def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=None,
+                       dt: float = 1e-3, n_sub: int = 40, backlash: float = 0.0,
+                       contact_hz: float = 60.0, contact_damping: float = 0.15,
+                       flex_hz: float = 0.0, flex_damping: float = 0.05, load_share: float = 0.5,
+                       friction_on_load: float = 0.0, disturbance: float = 0.0,
+                       disturbance_tau: float = 0.01, torque_noise: float | None = None,
+                       resolution: float | None = None, jitter: float = 0.0, drop: float = 0.0,
+                       encoder: str = "motor") -> tuple[Record, np.ndarray]:
+    """A record of ``spec``'s joint under its sine test (or ``torque``, held per ``dt``):
+    ``backlash`` (total width; the teeth meet through a ``contact_hz`` spring of damping ratio
+    ``contact_damping``) and/or a gear spring ``flex_hz``; ``load_share`` of the inertia beyond
+    the gear; ``friction_on_load`` of the friction there.  ``disturbance``: std of a torque the
+    joint feels and the record does not hold (correlation time ``disturbance_tau``).  Sampled
+    at 1/dt with ``jitter`` (fraction of dt) and ``drop`` (lost samples).  Returns the record
+    and the fine path (motor, load angle) every dt / n_sub."""
+    rng = np.random.default_rng([seed, 77])
+    f = spec.friction
+    n = int(round(duration / dt))
+    t = np.arange(n) * dt
+    if torque is None:
+        A, fr = spec.excitation
+        torque = A * np.sin(2.0 * np.pi * fr * t)
+    u = np.ascontiguousarray(torque, dtype=float)
+    geared = backlash > 0 or flex_hz > 0
+    Jl = load_share * spec.inertia if geared else 0.0
+    Jm = spec.inertia - Jl
+    hz, zeta = (flex_hz, flex_damping) if flex_hz > 0 else (contact_hz, contact_damping)
+    w = 2.0 * math.pi * hz
+    P = np.array([f.Fc, f.Fs, f.alpha, f.sigma0, f.sigma1, f.sigma2, Jm, Jl, 0.5 * backlash,
+                  Jl * w * w, 2.0 * zeta * w * Jl, 1.0 if geared else 0.0, friction_on_load])
+    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(6))
+    fine_t = np.arange(n * n_sub + 1) * (dt / n_sub)
+    ts = np.sort(t + jitter * dt * rng.uniform(-0.5, 0.5, n))
+    ts[0] = 0.0
+    keep = rng.uniform(size=n) >= drop
+    keep[:5] = True
+    ts = ts[keep]
+    q = np.interp(ts, fine_t, path[:, 1 if encoder == "load" else 0])
+    res = spec.encoder_resolution if resolution is None else resolution
+    if res > 0:
+        q = np.floor(q / res + 0.5) * res
+    sigma = spec.torque_noise if torque_noise is None else torque_noise
+    tau = u[np.minimum((ts / dt).astype(int), n - 1)] + sigma * rng.standard_normal(len(ts))
+    # the drive holds its command on its own clock; sampled at jittered instants the column
+    # is no longer held between the record's samples, so no ``torque_hold: zoh`` then
+    meta = {"inertia": spec.inertia, "joint_type": spec.joint_type, "source": "independent simulator"}
+    if not (jitter or drop):
+        meta["torque_hold"] = "zoh"
+    if encoder == "load":
+        meta["encoder"] = "load"
+    return Record(t=ts, tau=tau, q=q, meta=meta), path
