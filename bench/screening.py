@@ -9,7 +9,8 @@ regressed on the model's sensitivities to its own parameters (so LuGre can re-ad
 the candidate effect's sensitivities (finite differences of the same simulation, with any
 nonlinear hyper-parameter such as a pitch found beforehand from the residual's signature).
 An effect is significant when it explains at least ``MIN_EXPLAINED`` of the held-out residual
-variance, its gain is consistent across held-out half-cycles (paired t >= ``T_CRIT``), and
+variance, its gain is consistent across held-out half-cycles (paired t >= ``T_CRIT``; see
+``consistency`` for a drift, whose gain sits in the first segments), and
 a position-periodic effect, fitted on one direction of motion, still explains at least
 ``MIN_EXPLAINED_ACROSS`` of the other direction's residual.  The last test matters because a
 sinusoidal excitation repeats the same trajectory every cycle: any unmodelled, cycle-locked
@@ -149,6 +150,34 @@ class CrossValidation:
         return np.bincount(self.block, minlength=self.n_blocks).astype(float)
 
 
+def _paired_t(d: np.ndarray) -> float:
+    return float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
+
+
+# A drift settles in the first seconds, so its held-out gain sits in a few motion segments and
+# the paired t of the gain is low however well it is explained: a viscous warm-up (independent
+# records, 2026-11-25) explained 93-96 % of the held-out residual, less error in each of ten
+# segments (t of the log ratio 13.7), t of the gain 1.8.  Such a gain is consistent when the
+# effect explains most of the residual, the share it removes is consistent (t of the log
+# ratio), and the gain itself still leans positive.  A saturating torque constant's contenders
+# on the rotary motor (test seed 5907) had log-ratio t of 8-36 at 0.28-0.73 explained with t of
+# the gain -0.8 to 1.9: a consistent share with the largest segments made worse, not credited.
+DOMINANT, T_LEANS = 0.5, 1.0
+
+
+def consistency(sse_before: np.ndarray, sse_after: np.ndarray, counts: np.ndarray,
+                explained: float) -> tuple[float, bool]:
+    """Paired t of the held-out gain across motion segments, and whether the gain is
+    consistent (t >= ``T_CRIT``, or a dominant effect whose share removed is consistent)."""
+    t = _paired_t((sse_before - sse_after) / np.maximum(counts, 1))
+    if t >= T_CRIT:
+        return t, True
+    ok = (sse_before > 0) & (sse_after > 0)
+    if explained < DOMINANT or t < T_LEANS or not ok.all():
+        return t, False
+    return t, _paired_t(np.log(sse_before / sse_after)) >= T_CRIT
+
+
 def _column(data, values, appliers, base, key, step, idx):
     v = dict(values)
     v[key] = v[key] + step
@@ -183,9 +212,8 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         r = ctx.residual[cv.idx]
         sse_after = cv.sse(full, r)
         mse_after = float(sse_after.sum() / counts.sum())
-        d = (sse_before - sse_after) / np.maximum(counts, 1)
-        t = float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
         explained = 1.0 - mse_after / mse_before if mse_before > 0 else 0.0
+        t, consistent = consistency(sse_before, sse_after, counts, explained)
         across = 1.0 - cv.sse_across_directions(full, r) / across_before if across_before > 0 else 0.0
         across = across if math.isfinite(across) else 0.0
         score = n_eff * math.log(max(mse_after, 1e-300)) + len(keys) * math.log(max(n_eff, 2.0))
@@ -193,7 +221,7 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         beta = {k: float(b) for k, b in zip(keys, beta_all[J.shape[1]:])}
         term = X @ beta_all[J.shape[1]:]
         s = Screen(effect.name, init, beta, mse_before, mse_after, explained, across, t, score,
-                   explained >= MIN_EXPLAINED and t >= T_CRIT
+                   explained >= MIN_EXPLAINED and consistent
                    and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test),
                    size=float(np.percentile(np.abs(term), 99)))
         if best is None or s.score < best.score:

@@ -8,7 +8,7 @@ their parameters (a fit can solve them by least squares).
     additive torque   offset + a sin q + b cos q + sum_k (c_k sin(k w q) + d_k cos(k w q))
     level multiplier  (1 + asym sgn v) (1 + sum_k (e_k sin(k w' q) + f_k cos(k w' q)))
                       (1 + c_th (1 - exp(-t / tau_th)))        scales s(v): Fc and Fs
-    viscous multiplier (1 + c_th (1 - exp(-t / tau_th)))       scales sigma2
+    viscous multiplier (1 + c_v (1 - exp(-t / tau_th)))        scales sigma2
 with w = 2 pi / cogging pitch and w' = 2 pi / friction pitch.
 
 The joint's mechanics beyond a rigid body are slots too (zero = rigid, today's path):
@@ -41,7 +41,8 @@ PF_HARMONICS = 2
 ASYM = 15
 THERM_GAIN, THERM_TAU = 16, 17
 BACKLASH, FLEX_FREQ, FLEX_DAMP, LOAD_FRAC, LOAD_FRICTION = 18, 19, 20, 21, 22
-SIZE = 23
+THERM_VISC = 23       # the viscous part warms with its own gain (the oil thins)
+SIZE = 24
 
 # Backlash without a declared flexibility: the teeth meet through a stiff, well damped
 # spring-damper rather than an impact law.  An impact needs event detection inside a step,
@@ -114,10 +115,10 @@ def effect_terms(q, v, t, ev):
     if ev[PF_PITCH] > 0.0:
         level = level * (1.0 + _fourier(q, ev[PF_PITCH], ev, PF_COEF, PF_HARMONICS))
     visc = 1.0 + 0.0 * t
-    if ev[THERM_GAIN] != 0.0 and ev[THERM_TAU] > 0.0:
-        drift = 1.0 + ev[THERM_GAIN] * (1.0 - np.exp(-t / ev[THERM_TAU]))
-        level = level * drift
-        visc = visc * drift
+    if (ev[THERM_GAIN] != 0.0 or ev[THERM_VISC] != 0.0) and ev[THERM_TAU] > 0.0:
+        rise = 1.0 - np.exp(-t / ev[THERM_TAU])
+        level = level * (1.0 + ev[THERM_GAIN] * rise)
+        visc = visc * (1.0 + ev[THERM_VISC] * rise)
     return add, level, visc
 
 
@@ -126,7 +127,7 @@ def effect_terms(q, v, t, ev):
 # the sines at every call (``bench.fitting.predict``).  The level and viscous multipliers are
 # not linear and depend only on these slots:
 ADDITIVE_SLOTS = (OFFSET, GRAV_SIN, GRAV_COS) + tuple(range(COG_COEF, COG_COEF + 2 * COG_HARMONICS))
-LEVEL_SLOTS = (ASYM, PF_PITCH) + tuple(range(PF_COEF, PF_COEF + 2 * PF_HARMONICS)) + (THERM_GAIN, THERM_TAU)
+LEVEL_SLOTS = (ASYM, PF_PITCH) + tuple(range(PF_COEF, PF_COEF + 2 * PF_HARMONICS)) + (THERM_GAIN, THERM_TAU, THERM_VISC)
 
 
 def additive_columns(q: np.ndarray, cog_pitch: float) -> np.ndarray:

@@ -23,21 +23,44 @@ from bench.records import Record
 
 
 @njit(cache=True)
-def _rates(x, u, d, P):
-    """d/dt of (q_m, v_m, z_m, q_l, v_l, z_l).  P: Fc, Fs, alpha, sigma0, sigma1, sigma2,
-    J_m, J_l, half gap, stiffness, damping, geared, share of friction on the load."""
+def _rates(x, u, d, P, t):
+    """d/dt of (q_m, v_m, z_m, q_l, v_l, z_l, applied torque).  P: Fc, Fs, alpha, sigma0,
+    sigma1, sigma2, J_m, J_l, half gap, stiffness, damping, geared, share of friction on the
+    load; then the direct joint's own physics: m g l, its angle offset, current-loop time
+    constant, detent amplitude, detent pitch, its second harmonic, bearing ripple (relative),
+    its pitch, viscous warm-up (relative) and its time constant, constant torque, Coulomb
+    level going negative (relative), a sudden change of both levels (relative) and its time."""
     Fc, Fs, al, s0, s1, s2 = P[0], P[1], P[2], P[3], P[4], P[5]
     Jm, Jl, gap, k, c, geared, share = P[6], P[7], P[8], P[9], P[10], P[11], P[12]
-    out = np.zeros(6)
+    mgl, q0, lag, cog, cog_p, cog_h2 = P[13], P[14], P[15], P[16], P[17], P[18]
+    rip, rip_p, warm, warm_t, const, asym = P[19], P[20], P[21], P[22], P[23], P[24]
+    jump, jump_t = P[25], P[26]
+    out = np.zeros(7)
     vm, vl = x[1], x[4]
-    # LuGre on the motor's velocity
-    g = Fc + (Fs - Fc) * math.exp(-abs(al * vm))
+    # the drive's current loop: a first-order lag between the command and the torque felt
+    if lag > 0:
+        out[6] = (u - x[6]) / lag
+        u = x[6]
+    # torques the recorded command does not hold: a link's weight, detents, a constant
+    ext = const - mgl * math.sin(x[0] + q0)
+    if cog != 0.0:
+        ph = 2.0 * math.pi * x[0] / cog_p
+        ext -= cog * (math.sin(ph) + cog_h2 * math.sin(2.0 * ph + 0.7))
+    # LuGre on the motor's velocity; the bearing's ripple scales both levels, warming thins
+    # the oil (viscous part only), and the Coulomb level may differ going negative
+    scale = 1.0 + rip * math.cos(2.0 * math.pi * x[0] / rip_p) if rip != 0.0 else 1.0
+    if asym != 0.0 and vm < 0:
+        scale *= 1.0 + asym
+    if jump != 0.0 and t >= jump_t:
+        scale *= 1.0 + jump
+    visc = s2 * (1.0 - warm * (1.0 - math.exp(-t / warm_t))) if warm != 0.0 else s2
+    g = scale * (Fc + (Fs - Fc) * math.exp(-abs(al * vm)))
     zdm = vm - s0 * abs(vm) / g * x[2]
-    Fm = s0 * x[2] + s1 * zdm + s2 * vm
+    Fm = s0 * x[2] + s1 * zdm + visc * vm
     out[2] = zdm
     if geared == 0.0:
         out[0] = vm
-        out[1] = (u + d - Fm) / (Jm + Jl)
+        out[1] = (u + d + ext - Fm) / (Jm + Jl)
         return out
     # ... and on the load's
     g = Fc + (Fs - Fc) * math.exp(-abs(al * vl))
@@ -52,7 +75,7 @@ def _rates(x, u, d, P):
     else:
         T = 0.0
     out[0] = vm
-    out[1] = (u + d - (1.0 - share) * Fm - T) / Jm
+    out[1] = (u + d + ext - (1.0 - share) * Fm - T) / Jm
     out[3] = vl
     out[4] = (T - share * Fl) / Jl
     return out
@@ -71,10 +94,11 @@ def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0):
         for j in range(n_sub):
             if dist_std > 0:
                 d = a * d + dist_std * math.sqrt(1.0 - a * a) * np.random.randn()
-            k1 = _rates(x, u[i], d, P)
-            k2 = _rates(x + 0.5 * h * k1, u[i], d, P)
-            k3 = _rates(x + 0.5 * h * k2, u[i], d, P)
-            k4 = _rates(x + h * k3, u[i], d, P)
+            t = (i * n_sub + j) * h
+            k1 = _rates(x, u[i], d, P, t)
+            k2 = _rates(x + 0.5 * h * k1, u[i], d, P, t + 0.5 * h)
+            k3 = _rates(x + 0.5 * h * k2, u[i], d, P, t + 0.5 * h)
+            k4 = _rates(x + h * k3, u[i], d, P, t + h)
             x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             m = i * n_sub + j + 1
             path[m, 0], path[m, 1] = x[0], x[3]
@@ -88,14 +112,27 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                        friction_on_load: float = 0.0, disturbance: float = 0.0,
                        disturbance_tau: float = 0.01, torque_noise: float | None = None,
                        resolution: float | None = None, jitter: float = 0.0, drop: float = 0.0,
-                       encoder: str = "motor") -> tuple[Record, np.ndarray]:
+                       encoder: str = "motor", physics: dict | None = None
+                       ) -> tuple[Record, np.ndarray]:
     """A record of ``spec``'s joint under its sine test (or ``torque``, held per ``dt``):
     ``backlash`` (total width; the teeth meet through a ``contact_hz`` spring of damping ratio
     ``contact_damping``) and/or a gear spring ``flex_hz``; ``load_share`` of the inertia beyond
     the gear; ``friction_on_load`` of the friction there.  ``disturbance``: std of a torque the
     joint feels and the record does not hold (correlation time ``disturbance_tau``).  Sampled
     at 1/dt with ``jitter`` (fraction of dt) and ``drop`` (lost samples).  Returns the record
-    and the fine path (motor, load angle) every dt / n_sub."""
+    and the fine path (motor, load angle) every dt / n_sub.
+
+    ``physics`` adds, in this simulator's own conventions (not the effect library's): ``mgl``
+    and ``q0`` (a link's weight, -mgl sin(q + q0)), ``lag`` (a first-order current loop, s),
+    ``detent``/``detent_pitch``/``detent_h2`` (two harmonics), ``ripple``/``ripple_pitch``
+    (both friction levels scaled by 1 + ripple cos), ``warm``/``warm_tau`` (the viscous
+    coefficient falls by ``warm`` as the joint warms), ``constant`` (a torque the record does
+    not hold), ``asym`` (the friction levels going negative scaled by 1 + asym) and
+    ``jump``/``jump_t`` (both levels change by ``jump`` at ``jump_t``: outside the library)."""
+    ph = dict(physics or {})
+    unknown = set(ph) - {"mgl", "q0", "lag", "detent", "detent_pitch", "detent_h2", "ripple",
+                         "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t"}
+    assert not unknown, unknown
     rng = np.random.default_rng([seed, 77])
     f = spec.friction
     n = int(round(duration / dt))
@@ -110,8 +147,13 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     hz, zeta = (flex_hz, flex_damping) if flex_hz > 0 else (contact_hz, contact_damping)
     w = 2.0 * math.pi * hz
     P = np.array([f.Fc, f.Fs, f.alpha, f.sigma0, f.sigma1, f.sigma2, Jm, Jl, 0.5 * backlash,
-                  Jl * w * w, 2.0 * zeta * w * Jl, 1.0 if geared else 0.0, friction_on_load])
-    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(6))
+                  Jl * w * w, 2.0 * zeta * w * Jl, 1.0 if geared else 0.0, friction_on_load,
+                  ph.get("mgl", 0.0), ph.get("q0", 0.0), ph.get("lag", 0.0),
+                  ph.get("detent", 0.0), ph.get("detent_pitch", 1.0), ph.get("detent_h2", 0.0),
+                  ph.get("ripple", 0.0), ph.get("ripple_pitch", 1.0), ph.get("warm", 0.0),
+                  ph.get("warm_tau", 1.0), ph.get("constant", 0.0), ph.get("asym", 0.0),
+                  ph.get("jump", 0.0), ph.get("jump_t", 0.0)])
+    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7))
     fine_t = np.arange(n * n_sub + 1) * (dt / n_sub)
     ts = np.sort(t + jitter * dt * rng.uniform(-0.5, 0.5, n))
     ts[0] = 0.0
