@@ -22,7 +22,7 @@ from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
-from bench.unexplained import assess, noise_floor, structured
+from bench.unexplained import assess, level_changes, noise_floor, structured
 from bench.validate import in_range, record_magnitudes
 
 
@@ -209,6 +209,9 @@ def _diagnose(ident: Identification, rec: Record, add):
             p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)
             if not structured(p, data.coulomb, diag.replay_rms, diag.final_rms / floor if floor > 0 else None):
                 return [], 0.0
+            if level_changes(p, data.coulomb):   # the level changes over time: time first
+                return (["time"] + [k for k in p["relies_on"] if k != "time"],
+                        max(p["structured_rms"], p["level"]["changing_rms"]))
             return p["relies_on"], p["structured_rms"]
         return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
 

@@ -15,13 +15,17 @@ The learner is scikit-learn's histogram gradient boosting (interactions, no scal
 few thousand samples).  Acceleration and the recorded torque are deliberately *not* inputs: the
 residual is built from them (tau - M q''), and a disturbance torque shows up in q'' (and, in
 closed loop, in the controller's torque), so a learner given them would "predict" process
-noise.  The signals the learner relies on (drop-one refits) point to the physics.
+noise.  The signals the learner relies on (drop-one refits) point to the physics.  A change of
+the friction level over the record, which the coarse time signal misses, is tested apart
+(``bench.level_drift``) and reported under ``level``.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from bench.level_drift import level_change
 
 # Held-out fraction of residual variance the learner must predict, and the consistency of its
 # gain across held-out segments (paired t), for "structured".  Measured on tuning seeds
@@ -105,9 +109,11 @@ def assess_predictability(c, residual: np.ndarray, cv, explain: bool = True) -> 
     X = np.column_stack([feats[k] for k in FEATURES])
     pred, models = _held_out(X, r, fold, cv.n_folds)
     predicted, t = _score(r, pred, fold, block, cv.n_folds)
+    scored = np.zeros(len(residual), dtype=bool)
+    scored[cv.idx] = True
     out = {"predicted_fraction": predicted, "t": t,
            "structured_rms": scale * math.sqrt(max(predicted, 0.0)), "relies_on": [],
-           "importance": {}}
+           "importance": {}, "level": level_change(c, residual, scored)}
     if explain and predicted > 0:
         rng = np.random.default_rng(0)
         for j, name in enumerate(FEATURES):

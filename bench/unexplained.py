@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bench.level_drift import changes
 from bench.predictability import MIN_PREDICTED, T_CRIT
 from bench.signals import Conditioned, held_torque, second_difference
 
@@ -76,6 +77,9 @@ SIGNALS = {
     "direction": ("the direction of motion", "an effect that differs between the directions of "
                   "motion beyond the library's asymmetry"),
 }
+LEVEL_PHYSICS = ("a friction change during the record that one warm-up exponential does not describe "
+                 "(a step: lubricant redistributed, a seal, a load or a contact change; a temperature "
+                 "that rises and falls)")
 REGIME_PHYSICS = {
     "presliding": "presliding behaviour beyond a single bristle state: backlash in the gears, or "
                   "hysteresis with nonlocal memory (a Maxwell-slip / GMS model)",
@@ -107,11 +111,23 @@ def structured(p: dict, friction_level: float, replay_rms: float = 0.0,
                above_floor: float | None = None) -> bool:
     """Predicted clearly better than chance on held-out segments, large enough to matter, and
     clearly more than a perfect model leaves on this record (``bench.perfect_model``)."""
+    return state_structured(p, friction_level, replay_rms, above_floor) or level_changes(p, friction_level)
+
+
+def state_structured(p: dict, friction_level: float, replay_rms: float = 0.0,
+                     above_floor: float | None = None) -> bool:
+    """The state learner's part of ``structured``."""
     size = p["structured_rms"] / friction_level if friction_level > 0 else float("inf")
     big = size >= MIN_SIZE or size >= MIN_SIZE_MOSTLY and (
         p["predicted_fraction"] >= MOSTLY_PREDICTED or (above_floor or 0.0) > ABOVE_FLOOR)
     return bool(p["predicted_fraction"] >= MIN_PREDICTED and p["t"] >= T_CRIT and big
                 and p["structured_rms"] >= ABOVE_REPLAY * replay_rms)
+
+
+def level_changes(p: dict, friction_level: float) -> bool:
+    """Does the friction level change over the record (``bench.level_drift``), by at least
+    ``MIN_SIZE`` of the Coulomb level?"""
+    return "level" in p and changes(p["level"], friction_level, MIN_SIZE)
 
 
 def rising_map(params: dict, stderr: dict) -> str | None:
@@ -169,7 +185,7 @@ def _assess(final: dict, rms: float | None, floor: float | None, predictability:
                  "structured_vs_coulomb": size, "relies_on": list(p["relies_on"]),
                  "correlation_time_ratio": ratio, "noise_floor": floor, "rms_vs_noise_floor": above,
                  "concentrated_in": None, "direction": None, "follows": None, "look_for": [],
-                 "evidence": ""}
+                 "level_change": p.get("level"), "evidence": ""}
     pct = 100.0 * max(p["predicted_fraction"], 0.0)
     if not out["structured"]:
         why = (f"its predictable part ({100 * size:.2g} % of the Coulomb level) is too small or no more than the "
@@ -181,15 +197,25 @@ def _assess(final: dict, rms: float | None, floor: float | None, predictability:
                f"predicts {pct:.0f} % of it on held-out motion segments (t = {p['t']:.1f})")
         out["evidence"] = f"the residual behaves like noise, wherever it enters: {why}: nothing left to explain"
         return out
-    parts = [f"the final model leaves a structured residual that no effect in the library explains: "
-             f"{pct:.0f} % of it is predicted on held-out motion segments from the joint's state "
-             f"(t = {p['t']:.1f}), {100 * size:.2g} % of the Coulomb level"]
-    for sig in p["relies_on"][:2]:
-        if sig in SIGNALS:
-            out["look_for"].append(SIGNALS[sig][1])
-    if p["relies_on"]:
-        parts.append("it depends on " + " and ".join(SIGNALS[k][0] for k in p["relies_on"][:2] if k in SIGNALS))
-        out["follows"] = {"signal": p["relies_on"][0], "importance": p["importance"][p["relies_on"][0]]}
+    parts = []
+    if state_structured(p, friction_level, replay_rms, above):
+        parts.append(f"the final model leaves a structured residual that no effect in the library explains: "
+                     f"{pct:.0f} % of it is predicted on held-out motion segments from the joint's state "
+                     f"(t = {p['t']:.1f}), {100 * size:.2g} % of the Coulomb level")
+        for sig in p["relies_on"][:2]:
+            if sig in SIGNALS:
+                out["look_for"].append(SIGNALS[sig][1])
+        if p["relies_on"]:
+            parts.append("it depends on " + " and ".join(SIGNALS[k][0] for k in p["relies_on"][:2] if k in SIGNALS))
+            out["follows"] = {"signal": p["relies_on"][0], "importance": p["importance"][p["relies_on"][0]]}
+    if level_changes(p, friction_level):
+        lv = p["level"]
+        parts.append(f"{'and ' if parts else 'the final model leaves a structured residual that no effect in the library explains: '}"
+                     f"the friction level changes during the record in a way the model does not follow "
+                     f"(each motion segment's level is predicted by its neighbours', "
+                     f"{100 * lv['predicted_fraction']:.0f} % held out, t = {lv['t']:.1f}; "
+                     f"{100 * lv['changing_rms'] / friction_level:.2g} % of the Coulomb level)")
+        out["look_for"].append(LEVEL_PHYSICS)
     total = sum((r["rms"] or 0.0) ** 2 * r["fraction"] for r in final["by_regime"].values()) or 1.0
     shares = {name: ((r["rms"] or 0.0) ** 2 * r["fraction"] / total, r["fraction"])
               for name, r in final["by_regime"].items() if r["fraction"] > 0}
