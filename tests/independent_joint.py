@@ -29,12 +29,13 @@ def _rates(x, u, d, P, t):
     load; then the direct joint's own physics: m g l, its angle offset, current-loop time
     constant, detent amplitude, detent pitch, its second harmonic, bearing ripple (relative),
     its pitch, viscous warm-up (relative) and its time constant, constant torque, Coulomb
-    level going negative (relative), a sudden change of both levels (relative) and its time."""
+    level going negative (relative), a sudden change of both levels (relative) and its time,
+    Coulomb/Stribeck levels growing with the transmitted torque (mu: added level per |torque|)."""
     Fc, Fs, al, s0, s1, s2 = P[0], P[1], P[2], P[3], P[4], P[5]
     Jm, Jl, gap, k, c, geared, share = P[6], P[7], P[8], P[9], P[10], P[11], P[12]
     mgl, q0, lag, cog, cog_p, cog_h2 = P[13], P[14], P[15], P[16], P[17], P[18]
     rip, rip_p, warm, warm_t, const, asym = P[19], P[20], P[21], P[22], P[23], P[24]
-    jump, jump_t = P[25], P[26]
+    jump, jump_t, load_mu = P[25], P[26], P[27]
     out = np.zeros(7)
     vm, vl = x[1], x[4]
     # the drive's current loop: a first-order lag between the command and the torque felt
@@ -53,6 +54,8 @@ def _rates(x, u, d, P, t):
         scale *= 1.0 + asym
     if jump != 0.0 and t >= jump_t:
         scale *= 1.0 + jump
+    if load_mu != 0.0:   # the mesh's friction grows with the torque it carries
+        scale *= 1.0 + load_mu * abs(u) / Fc
     visc = s2 * (1.0 - warm * (1.0 - math.exp(-t / warm_t))) if warm != 0.0 else s2
     g = scale * (Fc + (Fs - Fc) * math.exp(-abs(al * vm)))
     zdm = vm - s0 * abs(vm) / g * x[2]
@@ -128,10 +131,11 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     (both friction levels scaled by 1 + ripple cos), ``warm``/``warm_tau`` (the viscous
     coefficient falls by ``warm`` as the joint warms), ``constant`` (a torque the record does
     not hold), ``asym`` (the friction levels going negative scaled by 1 + asym) and
-    ``jump``/``jump_t`` (both levels change by ``jump`` at ``jump_t``: outside the library)."""
+    ``jump``/``jump_t`` (both levels change by ``jump`` at ``jump_t``: outside the library) and
+    ``load_mu`` (the levels grow by ``load_mu`` |torque|, a loaded mesh: outside the library)."""
     ph = dict(physics or {})
     unknown = set(ph) - {"mgl", "q0", "lag", "detent", "detent_pitch", "detent_h2", "ripple",
-                         "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t"}
+                         "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t", "load_mu"}
     assert not unknown, unknown
     rng = np.random.default_rng([seed, 77])
     f = spec.friction
@@ -152,7 +156,7 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("detent", 0.0), ph.get("detent_pitch", 1.0), ph.get("detent_h2", 0.0),
                   ph.get("ripple", 0.0), ph.get("ripple_pitch", 1.0), ph.get("warm", 0.0),
                   ph.get("warm_tau", 1.0), ph.get("constant", 0.0), ph.get("asym", 0.0),
-                  ph.get("jump", 0.0), ph.get("jump_t", 0.0)])
+                  ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0)])
     path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7))
     fine_t = np.arange(n * n_sub + 1) * (dt / n_sub)
     ts = np.sort(t + jitter * dt * rng.uniform(-0.5, 0.5, n))
