@@ -4,8 +4,30 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from bench import terms
 from bench.effects.base import Context, Effect, check_known, explained_text, number
+
+# Below this variation over the travel (of its own size) a gravity term is a constant to the
+# fit: gravity peaking mid-travel varies by 1 - cos(T/2) ~ T^2/8, 1.1 % over the 0.3 rad of
+# j1's robot-joint-log record, where an Fc/4 offset was once named gravity (README known limits)
+INTERCHANGEABLE = 0.05
+
+
+def travel(ctx: Context) -> float:
+    q = ctx.data.c.q[ctx.data.mask]
+    return float(q.max() - q.min()) if len(q) else 0.0
+
+
+def offset_or_gravity(ctx: Context, variation: float) -> str:
+    """The sentence that says an offset and gravity cannot be told apart over this travel
+    (empty when they can)."""
+    if variation >= INTERCHANGEABLE:
+        return ""
+    return (f"; over this record's travel ({travel(ctx):.3g} rad) gravity would vary by only "
+            f"{100 * variation:.2g} % of its size, so a constant offset and uncompensated gravity "
+            f"cannot be told apart here: record a longer travel (a radian or more) to separate them")
 
 
 class Gravity(Effect):
@@ -26,8 +48,13 @@ class Gravity(Effect):
     def evidence(self, values, explained, ctx):
         a, b = values["grav_a"], values["grav_b"]
         amp = math.hypot(a, b)
+        q = ctx.data.c.q[ctx.data.mask]
+        g = a * np.sin(q) + b * np.cos(q)
+        size = float(np.max(np.abs(g))) if len(g) else 0.0
+        variation = float(np.ptp(g)) / size if size > 0 else 1.0
         return (f"residual follows position like uncompensated gravity, {a:+.3g} sin q {b:+.3g} cos q "
-                f"(amplitude {amp:.3g} {ctx.torque_unit}); {explained_text(explained)}")
+                f"(amplitude {amp:.3g} {ctx.torque_unit}); {explained_text(explained)}"
+                f"{offset_or_gravity(ctx, variation)}")
 
     def inject(self, kw, ev, spec):
         check_known(kw, ("a", "b", "amplitude", "phase"), self.name)

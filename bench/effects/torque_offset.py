@@ -2,8 +2,11 @@
 spring) present in both directions of motion and at standstill."""
 from __future__ import annotations
 
+import math
+
 from bench import terms
 from bench.effects.base import Context, Effect, check_known, explained_text, number, one_level_along_travel
+from bench.effects.gravity import offset_or_gravity, travel
 
 
 class TorqueOffset(Effect):
@@ -21,8 +24,10 @@ class TorqueOffset(Effect):
         ev[terms.OFFSET] += values["offset"]
 
     def evidence(self, values, explained, ctx):
+        # the gravity term that looks most like a constant here peaks mid-travel
+        alike = offset_or_gravity(ctx, 1.0 - math.cos(0.5 * travel(ctx))) if ctx.revolute else ""
         return (f"residual has a constant bias of {values['offset']:+.3g} {ctx.torque_unit} in both "
-                f"directions of motion and at standstill; {explained_text(explained)}")
+                f"directions of motion and at standstill; {explained_text(explained)}{alike}")
 
     def inject(self, kw, ev, spec):
         check_known(kw, ("value",), self.name)

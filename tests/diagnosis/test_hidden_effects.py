@@ -186,3 +186,17 @@ def test_torque_lag_is_measured_in_milliseconds():
     assert doc["final"]["effects"] == ["torque_lag"], doc["diagnosis"][:2]
     assert abs(doc["final"]["parameters"]["torque_lag"] / 0.004 - 1) < 0.05
     assert "4" in doc["diagnosis"][0]["evidence"] and "ms after" in doc["diagnosis"][0]["evidence"]
+
+
+def test_an_offset_over_a_short_travel_says_gravity_could_be_it():
+    """Over j1's robot-joint-log travel (~0.3 rad) gravity is a constant to within ~1 %: the
+    report must say the two cannot be told apart there, and must not say so over a sine
+    test's radian."""
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(PRESETS["j1"], "robot joint log with offset", seed=5405)
+    top = analyze_record(rec).report()["diagnosis"][0]
+    assert top["effect"] in ("torque_offset", "gravity") and top["significant"], top
+    assert "cannot be told apart here" in top["evidence"], top["evidence"]
+    sim, _ = simulate_scenario(PRESETS["j2"], ["gravity"], 5406)
+    top = analyze_record(sim.record).report()["diagnosis"][0]
+    assert top["effect"] == "gravity" and "cannot be told apart" not in top["evidence"], top
