@@ -85,7 +85,10 @@ def _rates(x, u, d, P, t):
 
 
 @njit(cache=True)
-def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0):
+def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0, pd):
+    """Integrate; ``pd`` = (kp, kd, reference amplitude, its frequency, encoder resolution):
+    with kp > 0 the torque of each period is a PD controller's on the (quantised) motor
+    encoder and its finite-difference velocity, written back into ``u`` (what a log holds)."""
     np.random.seed(seed)
     n = u.shape[0]
     path = np.empty((n * n_sub + 1, 2))
@@ -93,7 +96,16 @@ def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0):
     path[0, 0], path[0, 1] = x[0], x[3]
     a = math.exp(-h / dist_tau) if dist_tau > 0 else 0.0
     d = 0.0
+    kp, kd, amp, w, res = pd[0], pd[1], pd[2], 2.0 * math.pi * pd[3], pd[4]
+    period = n_sub * h
+    q_prev = 0.0
     for i in range(n):
+        if kp > 0:
+            tt = i * period
+            qe = math.floor(x[0] / res + 0.5) * res if res > 0 else x[0]
+            ve = (qe - q_prev) / period if i > 0 else 0.0
+            q_prev = qe
+            u[i] = kp * (amp * math.sin(w * tt) - qe) + kd * (amp * w * math.cos(w * tt) - ve)
         for j in range(n_sub):
             if dist_std > 0:
                 d = a * d + dist_std * math.sqrt(1.0 - a * a) * np.random.randn()
@@ -115,8 +127,8 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                        friction_on_load: float = 0.0, disturbance: float = 0.0,
                        disturbance_tau: float = 0.01, torque_noise: float | None = None,
                        resolution: float | None = None, jitter: float = 0.0, drop: float = 0.0,
-                       encoder: str = "motor", physics: dict | None = None
-                       ) -> tuple[Record, np.ndarray]:
+                       encoder: str = "motor", physics: dict | None = None,
+                       pd: tuple[float, float] | None = None) -> tuple[Record, np.ndarray]:
     """A record of ``spec``'s joint under its sine test (or ``torque``, held per ``dt``):
     ``backlash`` (total width; the teeth meet through a ``contact_hz`` spring of damping ratio
     ``contact_damping``) and/or a gear spring ``flex_hz``; ``load_share`` of the inertia beyond
@@ -124,6 +136,11 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     joint feels and the record does not hold (correlation time ``disturbance_tau``).  Sampled
     at 1/dt with ``jitter`` (fraction of dt) and ``drop`` (lost samples).  Returns the record
     and the fine path (motor, load angle) every dt / n_sub.
+
+    ``pd`` = (bandwidth Hz, reference amplitude): closed loop instead, the joint tracking
+    amplitude sin(2 pi f t) at the sine test's frequency f under a PD controller of that
+    bandwidth (kp = M w^2, kd = 1.4 M w, on the quantised motor encoder), the log holding the
+    controller's torque.
 
     ``physics`` adds, in this simulator's own conventions (not the effect library's): ``mgl``
     and ``q0`` (a link's weight, -mgl sin(q + q0)), ``lag`` (a first-order current loop, s),
@@ -157,7 +174,13 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("ripple", 0.0), ph.get("ripple_pitch", 1.0), ph.get("warm", 0.0),
                   ph.get("warm_tau", 1.0), ph.get("constant", 0.0), ph.get("asym", 0.0),
                   ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0)])
-    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7))
+    gains = np.zeros(5)
+    if pd is not None:
+        wc = 2.0 * math.pi * pd[0]
+        gains[:] = (spec.inertia * wc * wc, 1.4 * spec.inertia * wc, pd[1], spec.excitation[1],
+                    spec.encoder_resolution)
+        u = np.zeros(n)
+    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7), gains)
     fine_t = np.arange(n * n_sub + 1) * (dt / n_sub)
     ts = np.sort(t + jitter * dt * rng.uniform(-0.5, 0.5, n))
     ts[0] = 0.0
