@@ -24,6 +24,13 @@ class StribeckShape(Effect):
     def apply(self, values, extra, ev):
         pass  # delta is a LuGre parameter: the model reads values["delta"]
 
+    def whole_only(self, values) -> str:
+        # an exponent reshapes the map wherever the joint slides, so it takes a part of any
+        # structure that varies over the cycle: a saturating torque constant was credited as
+        # a Stribeck exponent beside a flagged residual (fresh seeds 8702, 8703; README known
+        # limits).  A true exponent leaves nothing structured.
+        return "a Stribeck exponent reshapes the whole friction-velocity map, so it is credited only as the whole story"
+
     def evidence(self, values, explained, ctx):
         d = values["delta"]
         shape = "sharper (more abrupt)" if d > 1 else "more gradual"
