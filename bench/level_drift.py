@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from bench.signals import reversals
+from bench.signals import paired_t, reversals
 
 # Fraction of the level series' variance its neighbours must predict, and the paired t of
 # that gain over segments, for "the level changes"; its size must also reach the verdict's
@@ -74,9 +74,7 @@ def level_change(c, residual: np.ndarray, mask: np.ndarray) -> dict:
     chance = (lv.sum() - lv) / (n - 1)
     e0, e1 = (lv - chance) ** 2, (lv - neighbours) ** 2
     predicted = 1.0 - e1.sum() / max(e0.sum(), 1e-300)
-    d = e0 - e1
-    t = float(d.mean() / (d.std(ddof=1) / math.sqrt(n) + 1e-300))
-    out.update(predicted_fraction=float(predicted), t=t,
+    out.update(predicted_fraction=float(predicted), t=paired_t(e0 - e1),
                changing_rms=float(np.std(lv) * math.sqrt(max(predicted, 0.0))))
     return out
 

@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from bench.level_drift import level_change
+from bench.signals import paired_t
 
 # Held-out fraction of residual variance the learner must predict, and the consistency of its
 # gain across held-out segments (paired t), for "structured".  Measured on tuning seeds
@@ -91,7 +92,7 @@ def _score(r, pred, fold, block, n_folds):
     counts = np.bincount(block, minlength=nb).astype(float)
     keep = counts > 0
     d = (np.bincount(block, e0 - e1, minlength=nb)[keep]) / counts[keep]
-    t = float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 2 else 0.0
+    t = paired_t(d) if len(d) > 2 else 0.0
     return float(predicted), t
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from bench.effects import Context, Effect
 from bench.fitting import FitData, FitResult, Param, predict
-from bench.signals import reversals
+from bench.signals import paired_t, reversals
 
 MIN_EXPLAINED = 0.15
 MIN_EXPLAINED_ACROSS = 0.10
@@ -150,10 +150,6 @@ class CrossValidation:
         return np.bincount(self.block, minlength=self.n_blocks).astype(float)
 
 
-def _paired_t(d: np.ndarray) -> float:
-    return float(d.mean() / (d.std(ddof=1) / math.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
-
-
 # A drift settles in the first seconds, so its held-out gain sits in a few motion segments and
 # the paired t of the gain is low however well it is explained: a viscous warm-up (independent
 # records, 2026-11-25) explained 93-96 % of the held-out residual, less error in each of ten
@@ -171,13 +167,13 @@ def consistency(sse_before: np.ndarray, sse_after: np.ndarray, counts: np.ndarra
                 explained: float) -> tuple[float, bool]:
     """Paired t of the held-out gain across motion segments, and whether the gain is
     consistent (t >= ``T_CRIT``, or a dominant effect whose share removed is consistent)."""
-    t = _paired_t((sse_before - sse_after) / np.maximum(counts, 1))
+    t = paired_t((sse_before - sse_after) / np.maximum(counts, 1))
     if t >= T_CRIT:
         return t, True
     ok = (sse_before > 0) & (sse_after > 0)
     if explained < DOMINANT or t < T_LEANS or not ok.all():
         return t, False
-    return t, _paired_t(np.log(sse_before / sse_after)) >= T_CRIT
+    return t, paired_t(np.log(sse_before / sse_after)) >= T_CRIT
 
 
 def _column(data, values, appliers, base, key, step, idx):

@@ -15,8 +15,9 @@ import numpy as np
 from bench import terms
 from bench.effects.base import Context, Effect, check_known, explained_text, number
 from bench.errors import InputError
-from bench.fitting import Param
+from bench.fitting import LUGRE_KEYS, Param
 from bench.level_drift import drift_follows
+from bench.lugre import LuGreParams
 
 # The neighbours must follow the levels at least as well as the drift, by this share of Fc.
 # Measured 2026-11-25 (tuning seeds 1450-1465 and seeds 9301-9306, since moved to 9401+ in the
@@ -49,7 +50,7 @@ class ThermalDrift(Effect):
         # the term in sliding, where the bristles sit at s(v): the levels are taken there
         c, m = ctx.data.c, ctx.data.mask
         rise = 1.0 - np.exp(-(c.t - c.t[0]) / values["th_tau"])
-        s = values["Fc"] + (values["Fs"] - values["Fc"]) * np.exp(-np.abs(values["alpha"] * c.v))
+        s = LuGreParams(**{k: values[k] for k in LUGRE_KEYS}, delta=values.get("delta", 1.0)).stribeck(c.v)
         term = rise * (values["th_gain"] * s * np.sign(c.v) + values["th_visc"] * values["sigma2"] * c.v)
         own, neighbours, n = drift_follows(c, ctx.residual, term, m)
         if n == 0:
