@@ -391,6 +391,9 @@ def drop_absorbers(data: FitData, diag: Diagnosis, meta: dict, inertia: float, l
         whole = [s for s in kept if relies and get(s.effect).whole_only(s.values)
                  and left >= WHOLE_LEFT * removed(s) and s not in suspects]
         suspects += whole
+        broken = {id(s): why for s in kept if s not in suspects
+                  and (why := get(s.effect).fails_at_end(diag.model.values, diag.contexts[-1]))}
+        suspects += [s for s in kept if id(s) in broken]
         if not suspects:
             return diag
         step = suspects[-1]
@@ -398,6 +401,7 @@ def drop_absorbers(data: FitData, diag: Diagnosis, meta: dict, inertia: float, l
         step.removed = True
         own = sorted(top & set(get(step.effect).signals))
         step.evidence += (" — but not credited: " + (
+            broken[id(step)] if id(step) in broken else
             f"what the model leaves with it still depends on {' and '.join(own)}" if own else
             f"{get(step.effect).whole_only(step.values)}, and it left a structure of {left:.3g} "
             f"beside the {removed(step):.3g} it removed" if step in whole else

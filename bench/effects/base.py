@@ -46,25 +46,17 @@ class Context:
         return "N·m" if self.revolute else "N"
 
 
-# Share of what an inertia error's fitted model leaves without its term that position still
-# explains once the term is in (a partial R^2).  Tuning seeds (1000-1999): true inertia errors
-# under eight recording conditions on all joints 0.000-0.004; springs along the linear stage's
-# travel that an inertia error had taken 0.038-0.37 (test seeds 5948 and fresh 8944: 0.06, 0.033).
-POSITION_ADDS = 0.015
-
-
-def position_adds(term: np.ndarray, ctx: "Context") -> float:
+def signal_adds(term: np.ndarray, signal: np.ndarray, ctx: "Context") -> float:
     """How much of what the fitted model (``ctx``) leaves without ``term`` (an effect's fitted
-    contribution, every sample) the position explains beyond ``term`` itself: the reduction
-    of the squared error when a line in position joins a line in ``term``.  Under one sine the
-    acceleration follows the position (q'' ~ -w^2 q), so a force along the travel (a spring, a
-    cable carrier) can be fitted as an inertia error; only the motion's harmonics tell them
-    apart, and there position must add nothing to the effect's own physics."""
+    contribution, every sample) ``signal`` explains beyond ``term`` itself: the reduction of
+    the squared error when a line in ``signal`` joins a line in ``term`` (a partial R^2).  An
+    effect's own physics is its term; a signal that still explains part of what the term was
+    fitted to says the term took a share of something else (``bench.effects.inertia_error``)."""
     m = ctx.data.mask
-    r, q = (ctx.residual + term)[m], ctx.data.c.q[m]
+    r, s = (ctx.residual + term)[m], signal[m]
     one = np.ones(len(r))
     X1 = np.column_stack([term[m], one])
-    X2 = np.column_stack([term[m], q - q.mean(), one])
+    X2 = np.column_stack([term[m], s - s.mean(), one])
     sse1 = float(np.sum((r - X1 @ np.linalg.lstsq(X1, r, rcond=None)[0]) ** 2))
     sse2 = float(np.sum((r - X2 @ np.linalg.lstsq(X2, r, rcond=None)[0]) ** 2))
     return (sse1 - sse2) / sse1 if sse1 > 0 else 0.0
@@ -138,6 +130,12 @@ class Effect:
     def holds(self, values: dict, ctx: Context) -> bool:
         """Does the effect's physics hold once fitted (``ctx``: the fitted model's state)?"""
         return True
+
+    def fails_at_end(self, values: dict, ctx: Context) -> str:
+        """Why the effect's physics does not hold on what the final model (``ctx``, ``values``)
+        leaves, or empty.  Checked once every effect is in, so another effect's structure
+        (gravity beside a Stribeck exponent) is not held against it."""
+        return ""
 
     def whole_only(self, values: dict) -> str:
         """Why the effect, with these values, is credited only when the final model leaves
