@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
+from bench.effects.base import (
+    Context,
+    Effect,
+    check_known,
+    explained_text,
+    number,
+    signal_adds,
+)
+from bench.errors import InputError
 
 # Share of what an inertia error's fitted model leaves without its term that position still
 # explains once the term is in (a partial R^2).  Tuning seeds (1000-1999): true inertia errors
@@ -19,7 +27,6 @@ POSITION_ADDS = 0.015
 # torque constants an inertia error was tried on (1100-1102) 0.094-0.197 on the linear stage
 # and j1-j4 (0.03 on one j4 record; ~0 on the rotary motor, whose friction hides it).
 CUBIC_ADDS = 0.05
-from bench.errors import InputError
 
 
 class InertiaError(Effect):

@@ -2,7 +2,14 @@
 like delta = 2 is common in lubricated contacts; the paper's model is delta = 1)."""
 from __future__ import annotations
 
-from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
+from bench.effects.base import (
+    Context,
+    Effect,
+    check_known,
+    explained_text,
+    number,
+    signal_adds,
+)
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
 from bench.model_trace import filtered_lugre
@@ -44,7 +51,8 @@ class StribeckShape(Effect):
 
     def fails_at_end(self, values, ctx):
         lugre = {k: values[k] for k in LUGRE_KEYS}
-        term = filtered_lugre(ctx.data, dict(lugre, delta=values["delta"])) - filtered_lugre(ctx.data, dict(lugre, delta=1.0))
+        term = (filtered_lugre(ctx.data, dict(lugre, delta=values["delta"]))
+                - filtered_lugre(ctx.data, dict(lugre, delta=1.0)))
         adds = signal_adds(term, ctx.data.c.q, ctx)
         if adds <= POSITION_ADDS:
             return ""
