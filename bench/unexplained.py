@@ -130,6 +130,12 @@ def level_changes(p: dict, friction_level: float) -> bool:
     return "level" in p and changes(p["level"], friction_level, MIN_SIZE)
 
 
+def decays(values: dict) -> bool:
+    """Is the fitted map still LuGre's, its Stribeck term decaying from rest (Fs not clearly
+    below Fc, ``MIN_RISE``)?  A term that rises was bent to absorb other physics."""
+    return values["Fs"] >= (1.0 - MIN_RISE) * values["Fc"]
+
+
 def rising_map(params: dict, stderr: dict) -> str | None:
     """Why the fitted LuGre map is no friction-velocity map LuGre describes, if it rises from
     rest: Fs clearly below Fc (``MIN_RISE``, ``RISE_SE``) but not gone (``DEGENERATE``); None

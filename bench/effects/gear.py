@@ -14,7 +14,7 @@ from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
 from bench.gear_model import gear_unit_term
 from bench.model_trace import filtered_lugre
-from bench.unexplained import MIN_RISE
+from bench.unexplained import decays
 
 
 def format_angle(x: float, unit: str) -> str:
@@ -139,8 +139,8 @@ class GearEffect(Effect):
         # saturating torque constant on the rotary motor (test seed 5522) was taken for a
         # 7.7 Hz spring with 26 % of the friction beyond it, on a LuGre map bent to rise from
         # rest (Fs = 0.81 Fc).  With friction beyond the gear the map must still be LuGre's:
-        # the Stribeck term only decays (bench.unexplained.MIN_RISE)
-        if self.share(values) > 0 and values["Fs"] < (1.0 - MIN_RISE) * values["Fc"]:
+        # the Stribeck term only decays (bench.unexplained.decays)
+        if self.share(values) > 0 and not decays(values):
             return False
         return True
 

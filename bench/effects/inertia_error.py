@@ -4,14 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.effects.base import (
-    Context,
-    Effect,
-    check_known,
-    explained_text,
-    number,
-    signal_adds,
-)
+from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
 from bench.errors import InputError
 
 # Share of what an inertia error's fitted model leaves without its term that position still

@@ -2,18 +2,11 @@
 like delta = 2 is common in lubricated contacts; the paper's model is delta = 1)."""
 from __future__ import annotations
 
-from bench.effects.base import (
-    Context,
-    Effect,
-    check_known,
-    explained_text,
-    number,
-    signal_adds,
-)
+from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
 from bench.model_trace import filtered_lugre
-from bench.unexplained import MIN_RISE
+from bench.unexplained import decays
 
 # Share of what the final model leaves without the exponent's term that position still
 # explains once the term is in (a partial R^2, ``signal_adds``): an exponent is a function of
@@ -47,7 +40,7 @@ class StribeckShape(Effect):
         # 8703) was fitted as delta = 2.9 with Fc = 75 Fs, a map rising like |v|^2.9 over the
         # record's speeds, and credited with "nothing left" (clean joints fit Fs >= 1.075 Fc,
         # bench.unexplained.MIN_RISE)
-        return values["Fs"] >= (1.0 - MIN_RISE) * values["Fc"]
+        return decays(values)
 
     def fails_at_end(self, values, ctx):
         lugre = {k: values[k] for k in LUGRE_KEYS}

@@ -5,14 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.effects.base import (
-    Context,
-    Effect,
-    check_known,
-    explained_text,
-    number,
-    signal_adds,
-)
+from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
 from bench.errors import InputError
 
 MAX_LAG = 0.2      # s: beyond this a "lag" is a different experiment
