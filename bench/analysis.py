@@ -13,7 +13,7 @@ import numpy as np
 
 from bench import plots
 from bench.diagnosis import Diagnosis, diagnose, drop_absorbers
-from bench.effects.gear import friction_beyond_gear, load_side
+from bench.effects.gear import friction_beyond_gear
 from bench.errors import BenchError, InputError
 from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
@@ -78,7 +78,7 @@ class Analysis:
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, d.noise_floor,
                                     self.predictability(), data.coulomb, d.replay_rms,
                                     lugre=(doc["parameters"], doc["uncertainty"]),
-                                    load_encoder=load_side(self.record.meta))
+                                    load_encoder=self.record.load_encoder)
         return doc
 
     def predictability(self) -> dict:

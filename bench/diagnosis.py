@@ -95,7 +95,7 @@ def _cleaned_starts(data: FitData, values: dict, appliers, inertia: float) -> li
     try:
         contribution = predict(data, values, appliers) - predict(data, lugre_only)
         cleaned = FitData(c=data.c, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
-                          revolute=data.revolute)
+                          revolute=data.revolute, load_encoder=data.load_encoder)
         revolute = data.revolute
         starts = lugre_starts(cleaned, section3_estimates(cleaned, inertia, revolute=revolute), inertia)
     except (NotIdentifiable, ValueError, FloatingPointError):

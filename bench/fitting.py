@@ -16,7 +16,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from bench import terms
-from bench.gear_model import gear_unit_term
+from bench.gear_model import gear_unit_term, spring_slip
 from bench.lugre import LuGreParams
 from bench.model_trace import filtered_columns, filtered_terms_lugre
 from bench.signals import Conditioned, effective_sample_fraction
@@ -47,6 +47,7 @@ class FitData:
     mask: np.ndarray          # samples scored (filter edges and start-up excluded)
     z0: float
     revolute: bool = True     # gravity (sin q, cos q) is a candidate nuisance term
+    load_encoder: bool = False    # the encoder reads the load beyond a gear (``encoder: load``)
     # the Coulomb level read off the map's high-speed line (eq. 8): the scale of "worth naming",
     # robust where a distorted dynamic fit is not
     coulomb: float = float("nan")
@@ -76,7 +77,7 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     ev = terms.empty()
     extra: dict = {"inertia_error": 0.0, "torque_lag": 0.0, "load_inertia": 0.0,
                    "backlash": 0.0, "flex_frequency": 0.0, "flex_damping": 0.0, "load_kappa": 0.0,
-                   "contact_frequency": 0.0, "contact_damping": 0.0}
+                   "contact_frequency": 0.0, "contact_damping": 0.0, "flex_slip": 0.0}
     for apply in appliers:
         apply(values, extra, ev)
     c = data.c
@@ -93,6 +94,17 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # the joint felt tau(t - lag), the record says tau(t): the estimate tau - M qdd carries
         # the difference (the filters are linear and time-invariant, so delay the filtered tau)
         out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
+    if data.load_encoder and extra["flex_frequency"] > 0:
+        # a gear spring seen from the load: the motor leads by e (bench.gear_model.spring_slip);
+        # its friction runs on v_l + de/dt, and eq. 5 leaves M_motor e'' (the load key holds
+        # the inertia beyond the spring from the encoder, here the motor's).  The slip's share
+        # is fitted (its physics says 1: GearEffect checks it)
+        slip, unit = spring_slip(c, extra["flex_frequency"], extra["flex_damping"])
+        if extra["flex_slip"]:
+            along = filtered_terms_lugre(data, lugre, ev, along=((extra["flex_frequency"], extra["flex_damping"]),
+                                                                 c.v_mid + slip))
+            out = out + extra["flex_slip"] * (along - motor)
+        return out + extra["load_inertia"] * unit
     if extra["load_inertia"] and (extra["backlash"] > 0 or extra["flex_frequency"] > 0):
         # a load beyond the gear (encoder on the motor): eq. 5 leaves M_load (qdd_l - qdd_m),
         # the load driven through the gear by the motor's recorded trajectory

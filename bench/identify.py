@@ -79,7 +79,8 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
         raise InputError(f"{name}: segments too short to analyse after splitting at {len(c.segments) - 1} gaps "
                          f"(the longest is {longest:.3g} s; each needs more than {2 * edge * c.dt_grid:.3g} s "
                          "of filter edges): record without long gaps")
-    return FitData(c=c, friction=F, mask=mask, z0=0.0, revolute=rec.joint_type == "revolute"), M
+    return FitData(c=c, friction=F, mask=mask, z0=0.0, revolute=rec.joint_type == "revolute",
+                   load_encoder=rec.load_encoder), M
 
 
 def _check_sliding(c: Conditioned, F: np.ndarray, name: str,

@@ -41,14 +41,17 @@ def filtered_lugre(data: FitData, lugre: dict) -> np.ndarray:
     return filtered_terms_lugre(data, lugre, terms.empty())
 
 
-def filtered_terms_lugre(data: FitData, lugre: dict, ev: np.ndarray) -> np.ndarray:
+def filtered_terms_lugre(data: FitData, lugre: dict, ev: np.ndarray,
+                         along: tuple | None = None) -> np.ndarray:
     """The LuGre friction with the terms' level and viscous multipliers, filtered.  Remembered
     for the last few values: a finite-difference Jacobian steps one value at a time, and every
-    step of a non-LuGre value reuses the trace of the point it steps from."""
+    step of a non-LuGre value reuses the trace of the point it steps from.  ``along``: (key,
+    velocity over each interval) to run it along another velocity than the measured one."""
     c = data.c
     level_key = tuple(float(ev[i]) for i in terms.LEVEL_SLOTS)
     # the bristle start z0 is set on the data by identification, so it is part of the key
-    key = (tuple(float(lugre[k]) for k in (*PARAMETER_NAMES, "delta")), level_key, float(data.z0))
+    key = (tuple(float(lugre[k]) for k in (*PARAMETER_NAMES, "delta")), level_key, float(data.z0),
+           None if along is None else along[0])
 
     def make():
         if any(level_key):
@@ -56,8 +59,8 @@ def filtered_terms_lugre(data: FitData, lugre: dict, ev: np.ndarray) -> np.ndarr
                                     lambda: multipliers(c, ev), 4)
         else:
             level = visc = ones(len(c.v_mid))
-        return c.lowpass(lugre_samples(data, lugre, level, visc))
-    return remember(data.cache.setdefault("lugre", {}), key, make, 4)
+        return c.lowpass(lugre_samples(data, lugre, level, visc, v=None if along is None else along[1]))
+    return remember(data.cache.setdefault("lugre", {}), key, make, 6)
 
 
 def multipliers(c: Conditioned, ev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

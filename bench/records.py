@@ -61,6 +61,11 @@ class Record:
         return None if m is None else float(m)
 
     @property
+    def load_encoder(self) -> bool:
+        """The encoder reads the load beyond a gear (``encoder: load``), not the motor."""
+        return str(self.meta.get("encoder", "motor")).strip().lower() == "load"
+
+    @property
     def joint_type(self) -> str:
         return str(self.meta.get("joint_type", "revolute"))
 

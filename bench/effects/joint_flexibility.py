@@ -43,6 +43,7 @@ class JointFlexibility(GearEffect):
     hyper = ("flex_frequency", "flex_kappa")
     load_key = "flex_load"
     kappa_key = "flex_kappa"
+    from_load = True
 
     def variants(self, ctx: Context) -> list[dict]:
         c = ctx.data.c
@@ -52,7 +53,9 @@ class JointFlexibility(GearEffect):
         if hi <= lo:
             return []
         grid = [(0.0, f, DEFAULT_DAMPING) for f in np.geomspace(lo, hi, 14)]
-        return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0, "flex_kappa": k}
+        # seen from the load, the motor's slip through the spring is a term of its own
+        slip = {"flex_slip": 0.0} if ctx.data.load_encoder else {}
+        return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0, "flex_kappa": k, **slip}
                 for _, f, z, k in best_gears(ctx, grid, dampings=(0.02, 0.1, 0.2))]
 
     def params(self, init):
@@ -62,7 +65,7 @@ class JointFlexibility(GearEffect):
                 self.load_param(init)] + self.kappa_params(init)
 
     def fd_step(self, key, ctx):
-        if key == "flex_damping":
+        if key in ("flex_damping", "flex_slip"):
             return 0.01
         return super().fd_step(key, ctx)
 
@@ -76,6 +79,7 @@ class JointFlexibility(GearEffect):
         extra["flex_frequency"] = values["flex_frequency"]
         extra["flex_damping"] = values["flex_damping"]
         extra["load_inertia"] += values["flex_load"]
+        extra["flex_slip"] = values.get("flex_slip", 1.0)
         self.apply_kappa(values, extra)
 
     def evidence(self, values, explained, ctx):
