@@ -130,9 +130,10 @@ class GearEffect(Effect):
 
     def applicable(self, ctx: Context) -> bool:
         # the term is what eq. 5's M qdd leaves behind: a record of friction torque
-        # (inertia 0, nothing subtracted) has no such term; and it runs the load along the
-        # *motor's* measured trajectory, so a load-side encoder would get the wrong physics
-        # credited (a load-side record is left to the verdict, which says what to record)
+        # (inertia 0, nothing subtracted) has no such term; and backlash runs the load along
+        # the *motor's* measured trajectory, so a load-side encoder would get the wrong
+        # physics credited (left to the verdict, which says what to record); a spring is
+        # fitted from either side (``from_load``)
         return ctx.inertia > 0 and (self.from_load or not ctx.data.load_encoder)
 
     def inapplicable(self, ctx: Context) -> str:

@@ -7,7 +7,12 @@ motion is the gear spring driven by the measured motor trajectory
 (``bench.terms.load_step``, the virtual joint's own).  The load inertia is linear in the
 term (screened); the frequency is searched on a grid up to the comparison filter's cutoff
 (a resonance above it is filtered out of what the fit sees), damping and frequency are then
-refined by the joint fit."""
+refined by the joint fit.
+
+With the encoder on the load (``encoder: load``) the motor's lead through the spring follows
+from the load's acceleration (``bench.gear_model.spring_slip``); the motor's friction runs on
+its own velocity, and the linear part is the motor's inertia (``flex_load`` holds the inertia
+beyond the spring from the encoder)."""
 from __future__ import annotations
 
 import math
