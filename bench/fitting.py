@@ -9,7 +9,7 @@ autocorrelation (filtered residuals are far from white).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -17,7 +17,7 @@ from scipy.optimize import least_squares
 
 from bench import terms
 from bench.gear_model import gear_unit_term, spring_slip
-from bench.lugre import LuGreParams
+from bench.lugre import LuGreParams, interval_to_samples
 from bench.model_trace import filtered_columns, filtered_terms_lugre
 from bench.signals import Conditioned, effective_sample_fraction
 
@@ -114,6 +114,30 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         gear = (extra["backlash"], *spring, extra["load_kappa"])
         out = out + extra["load_inertia"] * gear_unit_term(data, lugre, *gear, motor=motor)
     return out
+
+
+def cleaned(data: FitData, values: dict, appliers: list[Applier] = ()) -> FitData:
+    """The friction estimate with the effects' contribution removed, to re-identify LuGre on.
+    A gear spring seen from the load leaves the friction on the *motor's* velocity: the cleaned
+    record is then the motor's (velocity v_l + de/dt, its inertia term M_m e'' removed), so
+    LuGre is identified where it acts, not bent by the ringing of the load's."""
+    lugre_only = {k: values[k] for k in LUGRE_KEYS}
+    f = values.get("flex_frequency", 0.0)
+    if not (data.load_encoder and f > 0):
+        contribution = predict(data, values, appliers) - predict(data, lugre_only)
+        return FitData(c=data.c, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
+                       revolute=data.revolute, load_encoder=data.load_encoder)
+    c = data.c
+    slip, unit = spring_slip(c, f, values["flex_damping"])
+    plain = FitData(c=c, friction=data.friction, mask=data.mask, z0=data.z0, revolute=data.revolute)
+    rest = dict(values, flex_load=0.0)     # the other effects' terms, on the load's motion
+    contribution = (predict(plain, rest, appliers) - predict(plain, lugre_only)
+                    + values["flex_load"] * unit)
+    at_samples = np.concatenate([interval_to_samples(slip[ia:ib]) if ib > ia else np.zeros(b - a)
+                                 for (a, b), (ia, ib) in zip(c.segments, c.interval_segments)])
+    motor = replace(c, v_mid=c.v_mid + slip, v=c.v + c.lowpass(at_samples))
+    return FitData(c=motor, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
+                   revolute=data.revolute)
 
 
 @dataclass
