@@ -50,6 +50,7 @@ def simulate(
     process_noise_colour: Optional[str] = typer.Option(None, help="white, lowpass or pink (1/f); default white, lowpass when --process-noise-tau is given"),
     torque_noise: Optional[float] = typer.Option(None, help="std of the torque (or friction) reading noise: measurement noise only"),
     encoder_resolution: Optional[float] = typer.Option(None, help="position per encoder count"),
+    encoder: Optional[str] = typer.Option(None, help="a geared joint's encoder (backlash, joint_flexibility): motor (default) or load; written to the record as 'encoder'"),
     logger: bool = typer.Option(False, "--logger", help="sample like a PC logger: jittered 1-13 ms steps, dropped samples, occasional stalls"),
     logger_step: Optional[float] = typer.Option(None, help="the logger's mean step \\[s] (default 0.004; steps stay within 1-13 ms)"),
     logger_drop: Optional[float] = typer.Option(None, help="probability that the logger loses a sample (default 0.01)"),
@@ -89,7 +90,8 @@ def simulate(
         given = {k: v for k, v in dict(
             excitation=excitation, amplitude=amplitude, frequency=frequency, bandwidth=bandwidth, rate=rate,
             process_noise=process_noise, process_noise_tau=process_noise_tau, torque_noise=torque_noise,
-            encoder_resolution=encoder_resolution, output=output_kind, torque_offset=torque_offset).items()
+            encoder_resolution=encoder_resolution, output=output_kind, torque_offset=torque_offset,
+            encoder=encoder).items()
             if v is not None}
         rec = rec.with_(**given)
         if process_noise_colour is not None or process_noise_tau is not None:
@@ -257,9 +259,9 @@ def run(argv: list[str] | None = None) -> int:
         err.print(f"error: {where}{' '.join(e.format_message().split())}", markup=False, highlight=False,
                   soft_wrap=True)
         return 2
-    except cx.Exit as e:
+    except (typer.Exit, getattr(cx, "Exit", typer.Exit)) as e:   # typer >= 0.26: its own Exit
         return e.exit_code
-    except cx.Abort:
+    except (typer.Abort, getattr(cx, "Abort", typer.Abort)):
         err.print("aborted", markup=False, highlight=False)
         return 130
     except BenchError as e:  # a plugin command that let one through

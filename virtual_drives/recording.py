@@ -94,6 +94,7 @@ class Recording:
     torque_offset: float = 0.0            # left in the recorded column (the joint never feels it)
     gravity_left: tuple[float, float] = (0.0, 0.0)  # a sin q + b cos q left in the recorded column
     velocity_column: bool = False         # write qd (the true velocity, as a drive reports it)
+    encoder: str = "motor"                # a geared joint's encoder: on the motor or the load
 
     def with_(self, **changes) -> "Recording":
         return replace(self, **changes)
@@ -102,7 +103,8 @@ class Recording:
         """One line naming the first setting out of range (InputError)."""
         for name, value, choices in (("--excitation", self.excitation, EXCITATIONS),
                                      ("--output-kind", self.output, OUTPUTS),
-                                     ("--process-noise-colour", self.process_noise_colour, COLOURS)):
+                                     ("--process-noise-colour", self.process_noise_colour, COLOURS),
+                                     ("--encoder", self.encoder, ("motor", "load"))):
             if value not in choices:
                 raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
         _number("--rate", self.rate, 1.0, MAX_RATE)
@@ -291,6 +293,9 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     f = spec.friction
     M = spec.inertia
     ev = terms.empty() if extra is None else terms.full(extra)
+    if rec.encoder == "load" and not terms.two_mass(ev):
+        raise InputError("--encoder load needs a geared joint: inject backlash or joint_flexibility "
+                         "(a rigid joint's motor and load are one)")
     n_sub = substeps_for(dt, M, f.sigma0, f.sigma1, f.sigma2)
     dist = process_noise(n, dt, rec.process_noise, rec.process_noise_tau, rec.process_noise_colour, rng)
     res = spec.encoder_resolution if rec.encoder_resolution is None else rec.encoder_resolution
@@ -311,10 +316,13 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
         gear = Gear.of(spec, ev, dt)
         if gear is None:
             q, v, z, q_end, v_end, _ = simulate(felt, dt, n_sub, M, f.vector(), ev, centred(spec), 0.0, 0.0, 0.0)
-        else:   # a geared joint (backlash, a gear spring): the encoder reads the motor
-            q, v, z, _, _, q_end, v_end, *_ = simulate_two_mass(
+        else:   # a geared joint (backlash, a gear spring): the encoder reads the motor or the load
+            out = simulate_two_mass(
                 felt, dt, gear.n_sub, gear.M_motor, gear.M_load, f.vector(), ev, gear.gap, gear.w2,
                 gear.c2, centred(spec), 0.0, 0.0, centred(spec), 0.0, 0.0)
+            z = out[2]
+            q, v, q_end, v_end = (out[3], out[4], out[8], out[9]) if rec.encoder == "load" else \
+                                 (out[0], out[1], out[5], out[6])
     declared = M if declared_inertia is None else declared_inertia
     # tau - M q'' per period from the true states (the integrator's momentum balance makes
     # this the exact mean friction over the period), then at the instants between periods
@@ -352,6 +360,8 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     }
     if rec.output == "friction":
         meta["torque_column"] = "friction (tau - M q'')"
+    if terms.two_mass(ev):
+        meta["encoder"] = rec.encoder
     if rec.logger is not None:
         t_rec = t_rec + rec.logger.start
     record = Record(t=t_rec, tau=column, q=q_meas, qd=v_rec.copy() if rec.velocity_column else None,

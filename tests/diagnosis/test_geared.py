@@ -61,6 +61,8 @@ def test_the_command_line_hides_backlash_and_the_report_names_its_width(tmp_path
     (["--effect", "backlash:width=0"], "width must be positive"),
     (["--effect", "joint_flexibility:frequency=12,damping=3"], "damping ratio"),
     (["--effect", "joint_flexibility:freq=12"], "unknown parameter 'freq'"),
+    (["--encoder", "side", "--effect", "backlash:width=0.003"], "--encoder must be one of motor, load"),
+    (["--encoder", "load"], "--encoder load needs a geared joint"),
 ])
 def test_bad_gear_injections_are_one_line_errors(args, message, tmp_path):
     r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j1", "-o", str(tmp_path / "x.csv"), *args])
@@ -106,4 +108,21 @@ def test_a_gear_spring_seen_from_the_load_is_named_measured_and_cuts_the_error(j
     assert abs(p["flex_frequency"] / injected(texts, "frequency") - 1) < 0.10, (texts, p)
     spec = PRESETS[joint]
     assert abs(p["flex_load"] / ((1 - spec.load_fraction) * spec.inertia) - 1) < 0.10, (texts, p)
+    assert "motor side" in top["evidence"]
+
+
+def test_the_command_line_records_a_spring_from_the_load_and_the_report_names_it(tmp_path):
+    """bench simulate --encoder load writes ``encoder: load``; bench analyze fits the spring
+    from the load's motion and says the inertia beyond it is the motor's."""
+    csv, js = tmp_path / "j3.csv", tmp_path / "j3.json"
+    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j3", "--seed", "5861", "--encoder", "load",
+                                     "--effect", "joint_flexibility:frequency=4.5", "-o", str(csv)])
+    assert r.exit_code == 0, r.output
+    assert "# encoder: load" in csv.read_text()
+    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(js.read_text())
+    top = doc["diagnosis"][0]
+    assert top["effect"] == "joint_flexibility" and top["significant"], doc["diagnosis"][:3]
+    assert abs(doc["final"]["parameters"]["flex_frequency"] / 4.5 - 1) < 0.10
     assert "motor side" in top["evidence"]
