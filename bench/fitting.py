@@ -17,7 +17,7 @@ from scipy.optimize import least_squares
 
 from bench import terms
 from bench.gear_model import gear_unit_term, spring_slip
-from bench.lugre import LuGreParams, interval_to_samples
+from bench.lugre import LuGreParams
 from bench.model_trace import filtered_columns, filtered_terms_lugre
 from bench.signals import Conditioned, effective_sample_fraction
 
@@ -133,9 +133,7 @@ def cleaned(data: FitData, values: dict, appliers: list[Applier] = ()) -> FitDat
     rest = dict(values, flex_load=0.0)     # the other effects' terms, on the load's motion
     contribution = (predict(plain, rest, appliers) - predict(plain, lugre_only)
                     + values["flex_load"] * unit)
-    at_samples = np.concatenate([interval_to_samples(slip[ia:ib]) if ib > ia else np.zeros(b - a)
-                                 for (a, b), (ia, ib) in zip(c.segments, c.interval_segments)])
-    motor = replace(c, v_mid=c.v_mid + slip, v=c.v + c.lowpass(at_samples))
+    motor = replace(c, v_mid=c.v_mid + slip, v=c.v + c.lowpass(c.at_samples(slip)))
     return FitData(c=motor, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
                    revolute=data.revolute)
 

@@ -79,7 +79,7 @@ def breakdown(data: FitData, residual: np.ndarray, alpha: float, bins: int = 12)
         "sin_position": _corr(r, np.sin(q)),
         "cos_position": _corr(r, np.cos(q)),
         "time": _corr(r, t),
-        "torque_rate": _corr(r, np.gradient(c.tau, c.dt_grid)[m]),
+        "torque_rate": _corr(r, np.gradient(c.tau, c.t)[m]),   # on the times: a logger's gaps join segments
         "sgn_v_times_time": _corr(r, np.sign(v) * (t - t.mean())),
         "best_position_harmonic": _best_harmonic(q, r, span),
     }

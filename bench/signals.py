@@ -95,6 +95,13 @@ class Conditioned:
             at += n
         return out
 
+    def at_samples(self, x_mid: np.ndarray) -> np.ndarray:
+        """An interval signal (``*_mid``) at the full-rate samples, segment by segment (the
+        mean of the two intervals around each sample, as ``bench.lugre.interval_to_samples``)."""
+        from bench.lugre import interval_to_samples
+        return np.concatenate([interval_to_samples(x_mid[ia:ib]) if ib > ia else np.zeros(b - a)
+                               for (a, b), (ia, ib) in zip(self.segments, self.interval_segments)])
+
     def friction(self, inertia: float) -> np.ndarray:
         """Friction estimate of eq. 5 with inertia M, on the grid."""
         return self.tau - inertia * self.a

@@ -13,7 +13,6 @@ from bench.effects.base import Context, Effect, number
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
 from bench.gear_model import gear_unit_term, spring_slip
-from bench.lugre import interval_to_samples
 from bench.model_trace import filtered_lugre
 from bench.unexplained import decays
 
@@ -113,7 +112,7 @@ def _static_map_r2(data, v: np.ndarray, column: np.ndarray | None) -> float:
     c, m = data.c, data.mask
     s, top = np.sign(v), float(np.percentile(np.abs(v), 99)) or 1.0
     cols = [s, v] + [s * np.exp(-np.abs(v) / (k * top)) for k in (0.02, 0.05, 0.15)]
-    X = [c.lowpass(interval_to_samples(x))[m] for x in cols] + ([] if column is None else [column[m]])
+    X = [c.lowpass(c.at_samples(x))[m] for x in cols] + ([] if column is None else [column[m]])
     X, y = np.column_stack(X), data.friction[m] - data.friction[m].mean()
     left = y - X @ np.linalg.lstsq(X, y, rcond=None)[0]
     return 1.0 - float(left @ left) / max(float(y @ y), 1e-300)

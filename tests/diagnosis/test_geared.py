@@ -126,3 +126,18 @@ def test_the_command_line_records_a_spring_from_the_load_and_the_report_names_it
     assert top["effect"] == "joint_flexibility" and top["significant"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["flex_frequency"] / 4.5 - 1) < 0.10
     assert "motor side" in top["evidence"]
+
+
+def test_a_spring_seen_from_the_load_through_a_pc_logger(tmp_path):
+    """A load-side record from a PC logger (jittered steps, lost samples, stalls: the record is
+    analysed in segments between its gaps) still has its spring named and measured."""
+    csv, js = tmp_path / "j1.csv", tmp_path / "j1.json"
+    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j1", "--seed", "5862", "--encoder", "load",
+                                     "--condition", "jittered timestamps with dropped samples",
+                                     "--effect", "joint_flexibility:frequency=4.2,damping=0.06", "-o", str(csv)])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(js.read_text())
+    assert doc["diagnosis"][0]["effect"] == "joint_flexibility" and doc["diagnosis"][0]["significant"], doc["diagnosis"][:3]
+    assert abs(doc["final"]["parameters"]["flex_frequency"] / 4.2 - 1) < 0.10
