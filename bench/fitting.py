@@ -98,7 +98,8 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # a gear spring seen from the load: the motor leads by e (bench.gear_model.spring_slip);
         # its friction runs on v_l + de/dt, and eq. 5 leaves M_motor e'' (the load key holds
         # the inertia beyond the spring from the encoder, here the motor's).  The slip's share
-        # is fitted (its physics says 1: GearEffect checks it)
+        # is a screening column (0 at the effect's zero strength); the joint fit holds it at 1,
+        # its physics (left free it traded against sigma0/sigma1: 0.18 on the rotary motor)
         slip, unit = spring_slip(c, extra["flex_frequency"], extra["flex_damping"])
         if extra["flex_slip"]:
             along = filtered_terms_lugre(data, lugre, ev, along=((extra["flex_frequency"], extra["flex_damping"]),

@@ -84,6 +84,7 @@ class JointFlexibility(GearEffect):
         extra["flex_frequency"] = values["flex_frequency"]
         extra["flex_damping"] = values["flex_damping"]
         extra["load_inertia"] += values["flex_load"]
+        # the slip's share: screened from 0, not a fitted parameter, so 1 once refitted
         extra["flex_slip"] = values.get("flex_slip", 1.0)
         self.apply_kappa(values, extra)
 
