@@ -174,6 +174,9 @@ def validate(rec: Record, name: str = "record") -> None:
     jt = rec.meta.get("joint_type")
     if jt is not None and jt not in JOINT_TYPES:
         raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
+    enc = rec.meta.get("encoder")
+    if enc is not None and str(enc).strip().lower() not in ("motor", "load"):
+        raise InputError(f"{name}: encoder must be motor or load (the side of a geared joint's gear it reads), not {enc!r}")
     m = rec.meta.get("inertia")
     if m is not None:
         try:

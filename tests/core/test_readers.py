@@ -198,6 +198,8 @@ def test_logger_file_end_to_end_with_residuals(tmp_path):
      "segments too short to analyse"),
     ("t,tau,q\n0,1,1\n", {"position_unit": "furlong"}, "position_unit 'furlong' is not one for a revolute joint"),
     ("t,tau,q\n" + "".join(f"{i / 1000},{i},{i}\n" for i in range(60)), {"inertia": -1}, "inertia must be positive"),
+    ("# encoder: output\nt,tau,q\n" + "".join(f"{i / 1000},{i},{i}\n" for i in range(60)), {"inertia": 1},
+     "encoder must be motor or load"),
 ])
 def test_bad_input_is_one_line(content, options, expect):
     with pytest.raises(InputError) as e:
