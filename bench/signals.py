@@ -15,6 +15,7 @@ from numba import njit
 from scipy import signal
 
 from bench.errors import InputError
+from bench.lugre import interval_to_samples
 from bench.records import Record
 from bench.segments import filtfilt_segments
 
@@ -98,7 +99,6 @@ class Conditioned:
     def at_samples(self, x_mid: np.ndarray) -> np.ndarray:
         """An interval signal (``*_mid``) at the full-rate samples, segment by segment (the
         mean of the two intervals around each sample, as ``bench.lugre.interval_to_samples``)."""
-        from bench.lugre import interval_to_samples
         return np.concatenate([interval_to_samples(x_mid[ia:ib]) if ib > ia else np.zeros(b - a)
                                for (a, b), (ia, ib) in zip(self.segments, self.interval_segments)])
 
