@@ -36,16 +36,29 @@ def gear_unit_term(data: FitData, lugre: dict, width: float, frequency: float, d
     return rel + kappa * (load_friction - motor)
 
 
+def _per_record(cache: dict, c: Conditioned, key: tuple, make):
+    """``make()`` remembered for the record ``c`` (its id alone could be a dead record's)."""
+    hit = cache.get((id(c), *key))
+    if hit is not None and hit[0] is c:
+        return hit[1]
+    out = make()
+    if len(cache) > 8:
+        cache.clear()
+    cache[(id(c), *key)] = (c, out)
+    return out
+
+
 _GEAR_CACHE: dict = {}
 
 
 def gear_term(c: Conditioned, width: float, frequency: float, damping: float) -> np.ndarray:
     """(qdd_load - qdd_motor) on the grid, per unit load inertia.  Cached: a fit varies
     LuGre far more often than the gear."""
-    key = (id(c), width, frequency, damping)
-    hit = _GEAR_CACHE.get(key)
-    if hit is not None and hit[0] is c:
-        return hit[1]
+    return _per_record(_GEAR_CACHE, c, (width, frequency, damping),
+                       lambda: _gear_term(c, width, frequency, damping))
+
+
+def _gear_term(c: Conditioned, width: float, frequency: float, damping: float) -> np.ndarray:
     ev = terms.empty()
     ev[terms.BACKLASH], ev[terms.FLEX_FREQ], ev[terms.FLEX_DAMP] = width, frequency, damping
     gap, w2, c2 = terms.coupling(ev)
@@ -56,11 +69,7 @@ def gear_term(c: Conditioned, width: float, frequency: float, damping: float) ->
         q, qm = _motor_trajectory(c, a, b, ia, ib)
         ql = terms.load_trajectory(qm, c.dt, n_sub, gap, w2, c2)
         rel[a:b] = second_difference(ql - qm, c.dt) + second_difference(qm - q, c.dt)
-    term = c.lowpass(rel)
-    if len(_GEAR_CACHE) > 8:
-        _GEAR_CACHE.clear()
-    _GEAR_CACHE[key] = (c, term)
-    return term
+    return c.lowpass(rel)
 
 
 def _motor_trajectory(c: Conditioned, a: int, b: int, ia: int, ib: int):
@@ -166,10 +175,10 @@ def spring_slip(c: Conditioned, frequency: float, damping: float) -> tuple[np.nd
     filter is discretised for a piecewise-linear input (first-order hold): on tuning seeds
     1500-1504 (five joints, 3-28 Hz) a zero-order hold left 2-4x more of the residual, its
     half-sample lag mistiming the motor's velocity at reversals."""
-    key = (id(c), frequency, damping)
-    hit = _SLIP_CACHE.get(key)
-    if hit is not None and hit[0] is c:
-        return hit[1]
+    return _per_record(_SLIP_CACHE, c, (frequency, damping), lambda: _spring_slip(c, frequency, damping))
+
+
+def _spring_slip(c: Conditioned, frequency: float, damping: float) -> tuple[np.ndarray, np.ndarray]:
     w = 2.0 * math.pi * frequency
     num, den, _ = signal.cont2discrete(([1.0], [2.0 * damping * w, w * w]), c.dt, method="foh")
     num = np.ravel(num)
@@ -183,8 +192,4 @@ def spring_slip(c: Conditioned, frequency: float, damping: float) -> tuple[np.nd
         e, _ = signal.lfilter(num, den, acc, zi=signal.lfilter_zi(num, den) * acc[0])  # from rest
         slip[ia:ib] = np.gradient(e, c.dt)
         edd[a:b] = interval_to_samples(np.gradient(slip[ia:ib], c.dt))
-    out = (slip, c.lowpass(edd))
-    if len(_SLIP_CACHE) > 8:
-        _SLIP_CACHE.clear()
-    _SLIP_CACHE[key] = (c, out)
-    return out
+    return slip, c.lowpass(edd)

@@ -25,6 +25,7 @@ from bench.errors import InputError
 
 REQUIRED = ("t", "tau", "q")
 JOINT_TYPES = ("prismatic", "revolute")
+ENCODER_SIDES = ("motor", "load")    # which side of a geared joint's gear the encoder reads
 
 
 @dataclass
@@ -175,7 +176,7 @@ def validate(rec: Record, name: str = "record") -> None:
     if jt is not None and jt not in JOINT_TYPES:
         raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
     enc = rec.meta.get("encoder")
-    if enc is not None and str(enc).strip().lower() not in ("motor", "load"):
+    if enc is not None and str(enc).strip().lower() not in ENCODER_SIDES:
         raise InputError(f"{name}: encoder must be motor or load (the side of a geared joint's gear it reads), not {enc!r}")
     m = rec.meta.get("inertia")
     if m is not None:

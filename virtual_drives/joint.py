@@ -13,7 +13,7 @@ import numpy as np
 
 from bench import terms
 from bench.lugre import LuGreParams
-from bench.records import Record
+from bench.records import ENCODER_SIDES, Record
 from virtual_drives.physics import simulate, simulate_two_mass, substeps_for, two_mass_substeps
 
 
@@ -200,7 +200,7 @@ def simulate_record(spec: JointSpec, amplitude: float, frequency: float, duratio
     lo, hi = spec.position_limits
     start = 0.5 * (lo + hi) if q0 is None else q0
     side = spec.encoder if encoder is None else encoder
-    if side not in ("motor", "load"):
+    if side not in ENCODER_SIDES:
         raise ValueError(f"encoder must be 'motor' or 'load', not {side!r}")
     gear = Gear.of(spec, ev, dt)
     if gear is None:

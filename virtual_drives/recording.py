@@ -32,7 +32,7 @@ from scipy.signal import lfilter
 from bench import terms
 from bench.errors import InputError
 from bench.lugre import LuGreParams, interval_to_samples
-from bench.records import Record
+from bench.records import ENCODER_SIDES, Record
 from bench.validate import MAX_RATE, MAX_SAMPLES, in_range
 from virtual_drives.joint import Gear, JointSpec, lagged, quantise, sine_torque
 from virtual_drives.physics import simulate, simulate_two_mass, substeps_for
@@ -104,7 +104,7 @@ class Recording:
         for name, value, choices in (("--excitation", self.excitation, EXCITATIONS),
                                      ("--output-kind", self.output, OUTPUTS),
                                      ("--process-noise-colour", self.process_noise_colour, COLOURS),
-                                     ("--encoder", self.encoder, ("motor", "load"))):
+                                     ("--encoder", self.encoder, ENCODER_SIDES)):
             if value not in choices:
                 raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
         _number("--rate", self.rate, 1.0, MAX_RATE)
