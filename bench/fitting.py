@@ -16,7 +16,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from bench import terms
-from bench.gear_model import gear_unit_term, spring_slip
+from bench.gear_model import gap_slip, gear_unit_term, spring_slip
 from bench.lugre import LuGreParams
 from bench.model_trace import filtered_columns, filtered_terms_lugre
 from bench.signals import Conditioned, effective_sample_fraction
@@ -48,6 +48,7 @@ class FitData:
     z0: float
     revolute: bool = True     # gravity (sin q, cos q) is a candidate nuisance term
     load_encoder: bool = False    # the encoder reads the load beyond a gear (``encoder: load``)
+    inertia: float = 1.0          # the joint's declared inertia (eq. 5's M)
     # the Coulomb level read off the map's high-speed line (eq. 8): the scale of "worth naming",
     # robust where a distorted dynamic fit is not
     coulomb: float = float("nan")
@@ -77,7 +78,8 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
     ev = terms.empty()
     extra: dict = {"inertia_error": 0.0, "torque_lag": 0.0, "load_inertia": 0.0,
                    "backlash": 0.0, "flex_frequency": 0.0, "flex_damping": 0.0, "load_kappa": 0.0,
-                   "contact_frequency": 0.0, "contact_damping": 0.0, "flex_slip": 0.0}
+                   "contact_frequency": 0.0, "contact_damping": 0.0, "flex_slip": 0.0,
+                   "motor_inertia": 0.0, "gap_slip": 0.0}
     for apply in appliers:
         apply(values, extra, ev)
     c = data.c
@@ -94,6 +96,13 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # the joint felt tau(t - lag), the record says tau(t): the estimate tau - M qdd carries
         # the difference (the filters are linear and time-invariant, so delay the filtered tau)
         out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
+    if data.load_encoder and extra["backlash"] > 0 and extra["motor_inertia"] > 0:
+        # backlash seen from the load: the motor leads through the gap (bench.gear_model.gap_slip);
+        # its friction on v_l + de/dt and its inertia term M_motor e'' (the motor's inertia is in
+        # the lead's dynamics, so it is fitted as such, not as a linear load); the whole term's
+        # share is a screening column (0 at the effect's zero strength, 1 once refitted)
+        _, unit, along = gap_slip(data, extra["backlash"], extra["motor_inertia"])
+        return out + extra["gap_slip"] * (along + extra["motor_inertia"] * unit)
     if data.load_encoder and extra["flex_frequency"] > 0:
         # a gear spring seen from the load: the motor leads by e (bench.gear_model.spring_slip);
         # its friction runs on v_l + de/dt, and eq. 5 leaves M_motor e'' (the load key holds
@@ -119,21 +128,26 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
 
 def cleaned(data: FitData, values: dict, appliers: list[Applier] = ()) -> FitData:
     """The friction estimate with the effects' contribution removed, to re-identify LuGre on.
-    A gear spring seen from the load leaves the friction on the *motor's* velocity: the cleaned
+    A gear spring or backlash seen from the load leaves the friction on the *motor's* velocity: the cleaned
     record is then the motor's (velocity v_l + de/dt, its inertia term M_m e'' removed), so
     LuGre is identified where it acts, not bent by the ringing of the load's."""
     lugre_only = {k: values[k] for k in LUGRE_KEYS}
     f = values.get("flex_frequency", 0.0)
-    if not (data.load_encoder and f > 0):
+    gap = values.get("bl_width", 0.0) if values.get("bl_motor", 0.0) > 0 else 0.0
+    if not (data.load_encoder and (f > 0 or gap > 0)):
         contribution = predict(data, values, appliers) - predict(data, lugre_only)
         return FitData(c=data.c, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
                        revolute=data.revolute, load_encoder=data.load_encoder)
     c = data.c
-    slip, unit = spring_slip(c, f, values["flex_damping"])
+    if gap > 0:
+        slip, unit, _ = gap_slip(data, gap, values["bl_motor"])
+        inertia, rest = values["bl_motor"], dict(values, bl_motor=0.0)
+    else:
+        (slip, unit), inertia = spring_slip(c, f, values["flex_damping"]), values["flex_load"]
+        rest = dict(values, flex_load=0.0)     # the other effects' terms, on the load's motion
     plain = FitData(c=c, friction=data.friction, mask=data.mask, z0=data.z0, revolute=data.revolute)
-    rest = dict(values, flex_load=0.0)     # the other effects' terms, on the load's motion
     contribution = (predict(plain, rest, appliers) - predict(plain, lugre_only)
-                    + values["flex_load"] * unit)
+                    + inertia * unit)
     motor = replace(c, v_mid=c.v_mid + slip, v=c.v + c.lowpass(c.at_samples(slip)))
     return FitData(c=motor, friction=data.friction - contribution, mask=data.mask, z0=data.z0,
                    revolute=data.revolute)

@@ -80,7 +80,7 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
                          f"(the longest is {longest:.3g} s; each needs more than {2 * edge * c.dt_grid:.3g} s "
                          "of filter edges): record without long gaps")
     return FitData(c=c, friction=F, mask=mask, z0=0.0, revolute=rec.joint_type == "revolute",
-                   load_encoder=rec.load_encoder), M
+                   load_encoder=rec.load_encoder, inertia=M), M
 
 
 def _check_sliding(c: Conditioned, F: np.ndarray, name: str,

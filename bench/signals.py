@@ -49,6 +49,7 @@ class Conditioned:
     # was split at gaps); every filter runs per segment, nothing crosses a gap
     segments: list = None
     velocity_source: str = "q"
+    tau_mid: np.ndarray = None    # torque over each interval, as the joint felt it (held or mean)
 
     def __post_init__(self):
         if self.segments is None:
@@ -231,7 +232,7 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
                     t_mid=cat("t_mid"), decim=decim, t=np.empty(0),
                     q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
                     frequency=f_exc, periodic=periodic, sos=sos, segments=bounds,
-                    velocity_source=source)
+                    velocity_source=source, tau_mid=cat("tau_mid"))
     c.t = c.decimate(t)
     c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(cat("v_raw")), c.lowpass(cat("a_raw")), c.lowpass(cat("tau_raw"))
     return c
@@ -249,7 +250,8 @@ def _segment_signals(t, q, qd, tau, dt, sos_v, held) -> dict:
         v_int = np.diff(q) / dt
     return {"v_raw": v_raw, "a_raw": a_raw, "v_mid": filtfilt(sos_v, v_int),
             "q_mid": 0.5 * (q[1:] + q[:-1]), "t_mid": 0.5 * (t[1:] + t[:-1]),
-            "tau_raw": held_torque(tau) if held else tau}
+            "tau_raw": held_torque(tau) if held else tau,
+            "tau_mid": np.asarray(tau[:-1], float) if held else 0.5 * (tau[1:] + tau[:-1])}
 
 
 def filtfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:

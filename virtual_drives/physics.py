@@ -26,47 +26,9 @@ import math
 import numpy as np
 from numba import njit
 
-from bench.lugre import bristle_step, stribeck_level
-from bench.terms import BACKLASH, LOAD_FRICTION, effect_terms, load_step, load_step_friction
-
-
-@njit(cache=True)
-def _substep(q0, v0, z0, t, h, tau, M, p, ev, has_terms, v_guess, slope_guess):
-    Fc, Fs, alpha, delta, s0, s1, s2 = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
-    chord = M + 0.5 * h * (0.5 * s0 * h + s1 + s2)
-    # the slope of the implicit equation changes little from step to step: start Newton
-    # with the last secant, fall back to the (upper-bound) chord
-    last_slope = slope_guess if 0.1 * M < slope_guess < 10.0 * chord else chord
-    v1 = v_guess
-    g_prev = 0.0
-    v_prev = 0.0
-    z1 = z0
-    add, level, visc = 0.0, 1.0, 1.0
-    for it in range(12):
-        vh = 0.5 * (v0 + v1)
-        if has_terms:
-            add, level, visc = effect_terms(q0 + 0.5 * h * vh, vh, t + 0.5 * h, ev)
-        s = level * stribeck_level(vh, Fc, Fs, alpha, delta)
-        z1, zbar = bristle_step(z0, vh, h, s, s0)
-        Fbar = s0 * zbar + s1 * (z1 - z0) / h + s2 * visc * vh
-        g = M * (v1 - v0) - h * (tau - Fbar - add)
-        slope = last_slope if it == 0 else chord
-        if it > 0 and v1 != v_prev:
-            sec = (g - g_prev) / (v1 - v_prev)
-            if sec > 0.1 * M and sec < 10.0 * chord:
-                slope = sec
-                last_slope = sec
-        dv = g / slope
-        v_prev = v1
-        g_prev = g
-        v1 = v1 - dv
-        # the error left after an update is the update times the Newton contraction (the
-        # slope is the last secant): 1e-7 relative leaves ~1e-9, far below the step's
-        # discretisation error (~4e-7 of the travel at 1 kHz); the bristle state of
-        # this last iterate is kept (the final correction moves vh by less than that)
-        if abs(dv) <= 1e-12 + 1e-7 * abs(v1):
-            break
-    return q0 + h * 0.5 * (v0 + v1), v1, z1, last_slope
+from bench.terms import BACKLASH, LOAD_FRICTION, load_step, load_step_friction
+from bench.terms import motor_step as _substep
+from bench.terms import substeps_for
 
 
 @njit(cache=True)
@@ -195,13 +157,3 @@ def two_mass_substeps(dt: float, M_motor: float, M_load: float, w2: float, c2: f
     # Runge-Kutta integration in 8 s, at 0.047 5e-7 (tests/core/test_independent_physics.py)
     rate = max(omega / (0.05 if load_friction > 0.0 else 0.1), damping / 1.0)
     return int(min(max_substeps, max(n, math.ceil(dt * rate))))
-
-
-def substeps_for(dt: float, M: float, sigma0: float, sigma1: float, sigma2: float,
-                 max_substeps: int = 64) -> int:
-    """Sub-steps per control period so that h resolves the presliding dynamics
-    (h * omega0 <= 0.5 and h * (sigma1 + sigma2) / M <= 1)."""
-    omega0 = math.sqrt(max(sigma0, 0.0) / M)
-    damping = (sigma1 + sigma2) / M
-    rate = max(omega0 / 0.5, damping / 1.0, 1e-12)
-    return int(min(max_substeps, max(1, math.ceil(dt * rate))))

@@ -17,7 +17,7 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import Context, check_known, explained_text, number
-from bench.effects.gear import GearEffect, best_gears, format_angle
+from bench.effects.gear import GearEffect, best_gaps, best_gears, format_angle
 from bench.errors import InputError
 from bench.fitting import Param
 
@@ -28,6 +28,12 @@ from bench.fitting import Param
 # 4.6 on j3 with half its friction beyond 3.5 mrad of backlash (independent simulator, seed
 # 9133), trading against Fc and alpha.
 CONTACT_HZ_RANGE = (20.0, 250.0)
+# Seen from a load-side encoder the motor's inertia sets how fast it crosses the gap.  It is a
+# share of the joint's: a motor with all of it would float in a wide gap and "predict" the
+# measurement itself (tau - M qdd_l: on tuning seed 1511, 0.0 % of Fc left at 1.25x the width
+# and 2x the motor's inertia).  The geared presets carry 50 %; a rotor reflected through a
+# high ratio can carry most of a light arm's.
+MOTOR_SHARE = (0.02, 0.9)
 CONTACT_DAMPING_RANGE = (0.02, 1.0)
 
 
@@ -39,19 +45,30 @@ class Backlash(GearEffect):
     # virtual joint's (terms.CONTACT_HZ, CONTACT_DAMPING): a real mesh rings (an independent
     # simulator's 60 Hz, damping 0.15 contact left 0.4 % of Fc structured beside 2 mrad of
     # backlash with the friction beyond it, none once fitted)
-    hyper = ("bl_width", "bl_kappa", "bl_contact", "bl_contact_damping")
+    hyper = ("bl_width", "bl_kappa", "bl_contact", "bl_contact_damping", "bl_motor", "bl_joint")
     load_key = "bl_load"
     kappa_key = "bl_kappa"
+    from_load = True
 
     def variants(self, ctx: Context) -> list[dict]:
         # a geared joint's play is a small fraction of its travel: 0.03 % to 3 %
         span = float(np.ptp(ctx.data.c.q_full))
-        grid = [(f * span, 0.0, 0.0) for f in np.geomspace(3e-4, 3e-2, 13)]
+        widths = [f * span for f in np.geomspace(3e-4, 3e-2, 13)]
+        if ctx.data.load_encoder:
+            # (the joint's inertia rides along, unscreened, to bound the motor's share)
+            return [{"bl_width": w, "bl_motor": m, "bl_slip": 0.0, "bl_joint": ctx.inertia}
+                    for w, m in best_gaps(ctx, widths)]
+        grid = [(w, 0.0, 0.0) for w in widths]
         return [dict({"bl_width": w, "bl_load": 0.0, "bl_kappa": k},
                      **({"bl_contact": terms.CONTACT_HZ, "bl_contact_damping": terms.CONTACT_DAMPING} if k > 0 else {}))
                 for w, _, _, k in best_gears(ctx, grid)]
 
     def params(self, init):
+        if "bl_motor" in init:      # seen from the load: the motor's inertia drives the lead
+            M = init["bl_joint"]
+            return [Param("bl_width", init["bl_width"], log=True),
+                    Param("bl_motor", init["bl_motor"], log=True, lo=math.log(MOTOR_SHARE[0] * M),
+                          hi=math.log(MOTOR_SHARE[1] * M))]
         out = [Param("bl_width", init["bl_width"], log=True), self.load_param(init)] + self.kappa_params(init)
         if init.get(self.kappa_key, 0.0) > 0:
             # with friction beyond the gear the load sticks and the contact's ringing shows;
@@ -65,10 +82,17 @@ class Backlash(GearEffect):
         return out
 
     def credible(self, values, ctx):
+        if "bl_motor" in values:    # (its share is bounded in the fit)
+            return True
         return self.gear_credible(values, ctx)
 
     def apply(self, values, extra, ev):
         extra["backlash"] = values["bl_width"]
+        if "bl_motor" in values:        # seen from the load (bench.fitting.predict)
+            extra["motor_inertia"] = values["bl_motor"]
+            # the term's share: screened from 0, not a fitted parameter, so 1 once refitted
+            extra["gap_slip"] = values.get("bl_slip", 1.0)
+            return
         extra["load_inertia"] += values["bl_load"]
         extra["contact_frequency"] = values.get("bl_contact", 0.0)
         extra["contact_damping"] = values.get("bl_contact_damping", 0.0)

@@ -12,8 +12,8 @@ from bench import terms
 from bench.effects.base import Context, Effect, number
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
-from bench.gear_model import gear_unit_term, spring_slip
-from bench.model_trace import filtered_lugre
+from bench.gear_model import gap_friction, gap_slip, gear_unit_term, spring_slip
+from bench.model_trace import filtered_lugre, lugre_samples
 from bench.unexplained import decays
 
 
@@ -104,6 +104,47 @@ def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int
     return out
 
 
+# Motor shares of the joint's inertia tried on the load-side backlash grid; the joint fit then
+# refines the motor's inertia within ``backlash.MOTOR_SHARE``
+MOTOR_SHARE_GRID = (0.2, 0.5, 0.8)
+# ...and the gain a candidate's term may take in the grid's fit (its physics says 1)
+GAP_GAIN = (0.7, 1.4)
+
+
+def best_gaps(ctx: Context, widths: list[float], count: int = 2) -> list[tuple[float, float]]:
+    """Backlash seen from a load-side encoder: the ``count`` (width, motor inertia) whose
+    motor, led through the gap (``bench.gear_model.gap_slip``), best explains what LuGre
+    fitted in contact (``gap_friction``) leaves; then a fine width grid around each pick.  The
+    term's gain is fitted beside it and must be near its physical 1: a wrong gap fits only
+    by being scaled down (tuning seeds 1512-1515: 0.93-1.0 at the true width, 0.4-0.8 at
+    half or twice it)."""
+    data, c, m = ctx.data, ctx.data.c, ctx.data.mask
+    p = gap_friction(data)
+    lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
+    ones_ = np.ones(len(c.v_mid))
+    r0 = (data.friction - c.lowpass(lugre_samples(data, lugre, ones_, ones_)))[m]
+    rr = float(r0 @ r0) or 1.0
+
+    def score(w, motor):
+        _, unit, along = gap_slip(data, w, motor)
+        col = (along + motor * unit)[m]
+        cc = float(col @ col)
+        gain = float(col @ r0) / cc if cc > 0 else 0.0
+        if not GAP_GAIN[0] <= gain <= GAP_GAIN[1]:
+            return 0.0
+        left = r0 - gain * col
+        return 1.0 - float(left @ left) / rr
+
+    grid = [(w, share * ctx.inertia) for w in widths for share in MOTOR_SHARE_GRID]
+    scored = sorted(((score(*g), g) for g in grid), key=lambda s: -s[0])
+    out = []
+    step = widths[1] / widths[0] if len(widths) > 1 else 1.0
+    for _, (w, motor) in [s for s in scored if s[0] > 0][:count]:
+        fine = [(w * f, motor) for f in np.geomspace(1 / step, step, 9)]
+        out.append(max(fine, key=lambda g: score(*g)))
+    return out
+
+
 def _static_map_r2(data, v: np.ndarray, column: np.ndarray | None) -> float:
     """Share of the friction estimate's variance that a static friction map along the
     velocity ``v`` (over each interval) explains, with ``column`` beside it: Coulomb, viscous
@@ -191,7 +232,7 @@ class GearEffect(Effect):
         return super().fd_step(key, ctx)
 
     def load_share(self, values, ctx: Context) -> str:
-        M_l = values.get("bl_load", 0.0) + values.get("flex_load", 0.0)
+        M_l = values.get("bl_load", 0.0) + values.get("flex_load", 0.0) + values.get("bl_motor", 0.0)
         # the inertia beyond the gear from the encoder: the load's, or from a load-side encoder the motor's
         side = "motor side" if ctx.data.load_encoder else "load side"
         return f"{side} {M_l:.3g} of the joint's {ctx.inertia:.3g} inertia ({M_l / ctx.inertia:.0%})"
