@@ -72,6 +72,8 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
         return False
 
     attempt({k: model.values[k] for k in LUGRE_KEYS}, screened)
+    if direct and all(k in direct for k in LUGRE_KEYS):   # an estimate with its own LuGre
+        attempt({k: direct[k] for k in LUGRE_KEYS}, dict(screened, **direct))
     # always re-identify as well: the screening's linearised promise can be far worse than
     # the true optimum, so a local refit that "meets" it may still sit in the wrong basin
     for values in candidates:

@@ -16,7 +16,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from bench import terms
-from bench.gear_model import gap_slip, gear_unit_term, spring_slip
+from bench.gear_model import gear_unit_term
+from bench.load_side import gap_slip, spring_slip
 from bench.lugre import LuGreParams
 from bench.model_trace import filtered_columns, filtered_terms_lugre
 from bench.signals import Conditioned, effective_sample_fraction
@@ -97,14 +98,14 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # the difference (the filters are linear and time-invariant, so delay the filtered tau)
         out = out + c.tau - np.interp(c.t - extra["torque_lag"], c.t, c.tau)
     if data.load_encoder and extra["backlash"] > 0 and extra["motor_inertia"] > 0:
-        # backlash seen from the load: the motor leads through the gap (bench.gear_model.gap_slip);
+        # backlash seen from the load: the motor leads through the gap (bench.load_side.gap_slip);
         # its friction on v_l + de/dt and its inertia term M_motor e'' (the motor's inertia is in
         # the lead's dynamics, so it is fitted as such, not as a linear load); the whole term's
         # share is a screening column (0 at the effect's zero strength, 1 once refitted)
         _, unit, along = gap_slip(data, extra["backlash"], extra["motor_inertia"])
         return out + extra["gap_slip"] * (along + extra["motor_inertia"] * unit)
     if data.load_encoder and extra["flex_frequency"] > 0:
-        # a gear spring seen from the load: the motor leads by e (bench.gear_model.spring_slip);
+        # a gear spring seen from the load: the motor leads by e (bench.load_side.spring_slip);
         # its friction runs on v_l + de/dt, and eq. 5 leaves M_motor e'' (the load key holds
         # the inertia beyond the spring from the encoder, here the motor's).  The slip's share
         # is a screening column (0 at the effect's zero strength); the joint fit holds it at 1,

@@ -1,7 +1,8 @@
 """What a load beyond the gear adds to the model (backlash, joint flexibility: ``bench.effects``),
 per unit load inertia and filtered like the measurement: the load run through the gear
 (``bench.terms``, the virtual joint's own recursion) along the measured motor trajectory, with or
-without a share of the friction on the load."""
+without a share of the friction on the load.  Seen from a load-side encoder it is the motor's
+lead over the load instead (``bench.load_side``)."""
 from __future__ import annotations
 
 import math
@@ -9,7 +10,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import signal
 
 from bench import terms
 from bench.lugre import interval_to_samples
@@ -157,129 +157,3 @@ class _LoadPath:
                 self._along.clear()
             self._along[key] = F
         return self._along[key]
-
-
-_SLIP_CACHE: dict = {}
-
-
-def spring_slip(c: Conditioned, frequency: float, damping: float) -> tuple[np.ndarray, np.ndarray]:
-    """A gear spring seen from a load-side encoder (``encoder: load``): the motor's lead over
-    the load, e = q_m - q_l, follows from the load's own acceleration, since the spring is all
-    that drives the load (friction on the motor): M_l qdd_l = k e + c de/dt, so
-    e = qdd_l / (w^2 + 2 zeta w s), a first-order filter of the measured acceleration with
-    the locked-rotor w (no motor simulation needed).  Eq. 5 with the joint's whole inertia
-    then leaves F(v_l + de/dt) + M_m (qdd_m - qdd_l).  Returns (de/dt over each interval, to
-    drive the motor's friction; filtered e'' at the samples, per unit motor inertia).
-
-    The acceleration is that of the model's velocity ``c.v_mid`` (lightly smoothed); the
-    filter is discretised for a piecewise-linear input (first-order hold): on tuning seeds
-    1500-1504 (five joints, 3-28 Hz) a zero-order hold left 2-4x more of the residual, its
-    half-sample lag mistiming the motor's velocity at reversals."""
-    return _per_record(_SLIP_CACHE, c, (frequency, damping), lambda: _spring_slip(c, frequency, damping))
-
-
-def _spring_slip(c: Conditioned, frequency: float, damping: float) -> tuple[np.ndarray, np.ndarray]:
-    w = 2.0 * math.pi * frequency
-    num, den, _ = signal.cont2discrete(([1.0], [2.0 * damping * w, w * w]), c.dt, method="foh")
-    num = np.ravel(num)
-    slip = np.empty_like(c.v_mid)
-    edd = np.empty_like(c.q_full)
-    for (a, b), (ia, ib) in zip(c.segments, c.interval_segments):
-        if ib - ia < 3:
-            slip[ia:ib], edd[a:b] = 0.0, 0.0
-            continue
-        acc = np.gradient(c.v_mid[ia:ib], c.dt)
-        e, _ = signal.lfilter(num, den, acc, zi=signal.lfilter_zi(num, den) * acc[0])  # from rest
-        slip[ia:ib] = np.gradient(e, c.dt)
-        edd[a:b] = interval_to_samples(np.gradient(slip[ia:ib], c.dt))
-    return slip, c.lowpass(edd)
-
-
-_GAP_CACHE: dict = {}
-
-
-def gap_slip(data: FitData, width: float, motor_inertia: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Backlash seen from a load-side encoder: the motor's lead over the load through the
-    gap (``bench.terms.motor_lead``), as ``spring_slip`` returns it for a spring.  In contact
-    the lead follows from the load's acceleration through the flanks' stiff contact; in the
-    gap the load coasts and the motor runs on its own inertia ``motor_inertia`` under the
-    torque against the friction.  That friction is the record's LuGre fitted in contact only
-    (``gap_friction``): a LuGre fit on the whole record is bent out of shape by the gap (Fc
-    +80 % to -100 % on tuning seeds 1512-1515) and would send the motor across it at the
-    wrong pace.
-
-    Returns (de/dt over each interval; filtered qdd_m - qdd_l of the model, whose load coasts
-    in the gap, per unit motor inertia; the filtered change of that friction from the load's
-    velocity to the motor's).  The model's term is the last plus the motor's inertia times
-    the second: within the gap the model is then tau itself.  It depends on the LuGre values
-    being fitted only through the friction's level in contact, so it is taken at the
-    contact fit's and cached: a joint fit's steps then cost no simulation."""
-    c = data.c
-    p = gap_friction(data)
-    return _per_record(_GAP_CACHE, c, (width, motor_inertia, *p),
-                       lambda: _gap_slip(data, width, motor_inertia, p))
-
-
-_CONTACT_CACHE: dict = {}
-
-
-def gap_friction(data: FitData) -> np.ndarray:
-    """The friction a motor crosses a gap against (the kernels' order): LuGre identified on
-    the record with the gap's events left out, so that only the joint in contact is fitted,
-    where the load-side encoder reads the motor but for a constant offset.  The flanks part
-    where the load's acceleration reverses during motion; each such reversal is masked with
-    2.5 periods of the comparison filter's cutoff either side (the gap, the impact and the
-    filter's spread).  On tuning seeds 1511-1515 this recovered Fc, Fs and sigma2 within
-    0.5 % where the plain fit was 80 % to 100 % off (or Fs 50x Fc).  Remembered per record (the first
-    friction estimate asked with: four numbers of the friction's level, not of the effect)."""
-    def make():
-        from bench.identify import _fit_lugre, section3_estimates
-        c = data.c
-        a = c.a
-        # reversals of the acceleration with a dead band (noise near zero is no reversal), in
-        # motion and at rest alike: where the motor sticks at a velocity reversal its
-        # presliding can ring the load off its flank too (j1, tuning seed 1511: kept in, they
-        # bent this fit to Fs = 175 Fc)
-        thr = 0.05 * float(np.percentile(np.abs(a), 99))
-        state = np.where(a > thr, 1, np.where(a < -thr, -1, 0))
-        held = np.flatnonzero(state)
-        flips = held[1:][np.diff(state[held]) != 0]
-        keep = data.mask.copy()
-        for t in c.t[flips]:
-            keep[np.abs(c.t - t) < 2.5 / c.cutoff] = False
-        from bench.fitting import FitData
-        contact = FitData(c=c, friction=data.friction, mask=keep, z0=0.0, revolute=data.revolute)
-        res = _fit_lugre(contact, section3_estimates(contact, data.inertia, revolute=data.revolute), data.inertia)
-        return np.array([res.values[k] for k in ("Fc", "Fs", "alpha")] + [1.0]
-                        + [res.values[k] for k in ("sigma0", "sigma1", "sigma2")])
-    return _per_record(_CONTACT_CACHE, data.c, (), make).copy()
-
-
-def _gap_slip(data: FitData, width: float, motor_inertia: float, p: np.ndarray) -> tuple:
-    c = data.c
-    ev = terms.empty()
-    ev[terms.BACKLASH] = width
-    gap, w2, c2 = terms.coupling(ev)
-    # the motor's presliding resolved as the virtual joint resolves it (the contact's law is
-    # solved exactly per step)
-    n_sub = terms.substeps_for(c.dt, motor_inertia, p[4], p[5], p[6])
-    slip = np.empty_like(c.v_mid)
-    edd = np.empty_like(c.q_full)
-    for (a, b), (ia, ib) in zip(c.segments, c.interval_segments):
-        if ib - ia < 3:
-            slip[ia:ib], edd[a:b] = 0.0, 0.0
-            continue
-        v = np.ascontiguousarray(c.v_mid[ia:ib])
-        acc = np.gradient(v, c.dt)
-        slip[ia:ib], free = terms.motor_lead(acc, np.ascontiguousarray(c.tau_mid[ia:ib]), v,
-                                             c.dt, n_sub, gap, w2, c2, motor_inertia, p)
-        # the model's load coasts in the gap: its acceleration there is zero, not the measured
-        # one, so the gap predicts tau itself and the measured M qdd_l is left in the residual
-        # (fed the measured one, a motor with nearly the joint's inertia floating in a wide gap
-        # copied the measurement, noise and all: tuning seed 1511 ran to the share's bound)
-        edd[a:b] = interval_to_samples(np.gradient(slip[ia:ib], c.dt) + free * acc)
-    lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
-    ones_ = ones(len(c.v_mid))
-    along = c.lowpass(lugre_samples(data, lugre, ones_, ones_, v=c.v_mid + slip)
-                      - lugre_samples(data, lugre, ones_, ones_))
-    return slip, c.lowpass(edd), along

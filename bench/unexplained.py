@@ -160,7 +160,8 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
     ``predictability`` of the residual from the state signals and the joint's Coulomb level.
     ``lugre``: the final LuGre parameters and their standard errors; a map they make rise from
     rest (``rising_map``) is physics outside the library however small the residual.
-    ``load_encoder``: the record's encoder is on the load, where backlash is not fitted."""
+    ``load_encoder``: the record's encoder is on the load, where a gear is fitted only with
+    all its friction on the motor."""
     out = _assess(final, rms, floor, predictability, friction_level, replay_rms)
     bent = rising_map(*lugre) if lugre is not None else None
     out["rising_map"] = bent is not None
@@ -173,8 +174,8 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
             out.update(structured=True, look_for=[look],
                        evidence=f"the residual is noise, but only because {bent}; look for {look}")
     if load_encoder and out["structured"]:
-        gear = ("this record's encoder is on the load, and backlash is only measured from the "
-                "motor's encoder: record the motor side to have it fitted")
+        gear = ("this record's encoder is on the load, where a gear is fitted only with all its "
+                "friction on the motor: record the motor side to have friction beyond the gear fitted")
         out["look_for"].append(gear)
         out["evidence"] += f"; {gear}"
     return out

@@ -12,7 +12,8 @@ from bench import terms
 from bench.effects.base import Context, Effect, number
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
-from bench.gear_model import gap_friction, gap_slip, gear_unit_term, spring_slip
+from bench.gear_model import gear_unit_term
+from bench.load_side import gap_friction, gap_slip, spring_slip
 from bench.model_trace import filtered_lugre, lugre_samples
 from bench.unexplained import decays
 
@@ -69,7 +70,7 @@ def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int
         xx, xr = float(x @ x), float(x @ r)
         return xr * xr / xx / rr if xx > 0 and xr > 0 else 0.0
 
-    if ctx.data.load_encoder:       # a spring seen from the load (bench.gear_model.spring_slip)
+    if ctx.data.load_encoder:       # a spring seen from the load (bench.load_side.spring_slip)
         # the friction runs on the motor's velocity, which the spring sets: a LuGre fit on the
         # load's is bent out of shape (Fs 10x Fc on j1, tuning seed 1504) and scores every
         # spring badly, so the grid scores a static map fitted afresh along each candidate's
@@ -113,13 +114,13 @@ GAP_GAIN = (0.7, 1.4)
 
 def best_gaps(ctx: Context, widths: list[float], count: int = 2) -> list[tuple[float, float]]:
     """Backlash seen from a load-side encoder: the ``count`` (width, motor inertia) whose
-    motor, led through the gap (``bench.gear_model.gap_slip``), best explains what LuGre
+    motor, led through the gap (``bench.load_side.gap_slip``), best explains what LuGre
     fitted in contact (``gap_friction``) leaves; then a fine width grid around each pick.  The
     term's gain is fitted beside it and must be near its physical 1: a wrong gap fits only
     by being scaled down (tuning seeds 1512-1515: 0.93-1.0 at the true width, 0.4-0.8 at
     half or twice it)."""
     data, c, m = ctx.data, ctx.data.c, ctx.data.mask
-    p = gap_friction(data)
+    p = gap_friction(data, start={k: ctx.values[k] for k in LUGRE_KEYS})
     lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
     ones_ = np.ones(len(c.v_mid))
     r0 = (data.friction - c.lowpass(lugre_samples(data, lugre, ones_, ones_)))[m]
@@ -162,7 +163,6 @@ def _static_map_r2(data, v: np.ndarray, column: np.ndarray | None) -> float:
 class GearEffect(Effect):
     load_key = ""
     kappa_key = ""      # a share of the friction beyond the gear, per unit load inertia
-    from_load = False   # fitted from a load-side encoder too (``encoder: load``)
 
     def apply_kappa(self, values, extra) -> None:
         # backlash and a gear spring together describe one gear: one load, one friction share
@@ -170,16 +170,11 @@ class GearEffect(Effect):
 
     def applicable(self, ctx: Context) -> bool:
         # the term is what eq. 5's M qdd leaves behind: a record of friction torque
-        # (inertia 0, nothing subtracted) has no such term; and backlash runs the load along
-        # the *motor's* measured trajectory, so a load-side encoder would get the wrong
-        # physics credited (left to the verdict, which says what to record); a spring is
-        # fitted from either side (``from_load``)
-        return ctx.inertia > 0 and (self.from_load or not ctx.data.load_encoder)
+        # (inertia 0, nothing subtracted) has no such term.  Either encoder will do: from the
+        # load the motor's lead is worked out from the load's motion (spring_slip, gap_slip)
+        return ctx.inertia > 0
 
     def inapplicable(self, ctx: Context) -> str:
-        if ctx.data.load_encoder and not self.from_load:
-            return ("a record whose encoder is on the load (`encoder: load`): the fit runs the gear "
-                    "from the motor's position, so record the motor encoder")
         return "a friction-torque record (inertia 0): it has no M qdd term for a load to leave behind"
 
     def load_param(self, init) -> Param:

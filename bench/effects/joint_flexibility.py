@@ -10,7 +10,7 @@ term (screened); the frequency is searched on a grid up to the comparison filter
 refined by the joint fit.
 
 With the encoder on the load (``encoder: load``) the motor's lead through the spring follows
-from the load's acceleration (``bench.gear_model.spring_slip``); the motor's friction runs on
+from the load's acceleration (``bench.load_side.spring_slip``); the motor's friction runs on
 its own velocity, and the linear part is the motor's inertia (``flex_load`` holds the inertia
 beyond the spring from the encoder)."""
 from __future__ import annotations
@@ -48,7 +48,6 @@ class JointFlexibility(GearEffect):
     hyper = ("flex_frequency", "flex_kappa")
     load_key = "flex_load"
     kappa_key = "flex_kappa"
-    from_load = True
 
     def variants(self, ctx: Context) -> list[dict]:
         c = ctx.data.c
