@@ -102,7 +102,7 @@ def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
     ``start``: LuGre values to start one more fit from (the whole record's)."""
     def make():
         from bench.fitting import LUGRE_KEYS, FitData, Param, fit
-        from bench.identify import NotIdentifiable, _fit_lugre, section3_estimates
+        from bench.identify import NotIdentifiable, _fit_lugre, lugre_starts, section3_estimates
         c, a = data.c, data.c.a
         # reversals of the acceleration (DEAD_BAND), in motion and at rest alike: where the
         # motor sticks at a velocity reversal its presliding can ring the load off its flank
@@ -131,6 +131,17 @@ def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
         try:
             others.append(_fit_lugre(wide, section3_estimates(wide, data.inertia, revolute=data.revolute),
                                      data.inertia).values)
+            # ...and Section III's starts read off the whole record's map, where the masked
+            # one can miss the high-speed line (an independent simulator's ringing contact,
+            # tuning seed 1624 on j2: Fc -90 % from the masked map, +7 % from the whole)
+            whole = FitData(c=c, friction=data.friction, mask=data.mask, z0=0.0, revolute=data.revolute)
+            est = section3_estimates(whole, data.inertia, revolute=data.revolute)
+            others += lugre_starts(whole, est, data.inertia)
+            # its map with the masked fit's or the whole fit's presliding (the map's own sigma1
+            # can be negative)
+            if all(np.isfinite(est[k]) and est[k] > 0 for k in ("Fc", "Fs", "alpha", "sigma2")):
+                others += [dict(pre, **{k: est[k] for k in ("Fc", "Fs", "alpha", "sigma2")})
+                           for pre in [res.values] + ([start] if start else [])]
         except (NotIdentifiable, ValueError, FloatingPointError):
             pass
         for values in others:

@@ -50,6 +50,10 @@ GEARS = [
     ("j1", 9131, dict(backlash=0.003, friction_on_load=1.0), "bl_width", 0.003),
     ("j2", 9132, dict(backlash=0.002, friction_on_load=1.0, load_share=0.6), "bl_width", 0.002),
     ("j3", 9133, dict(backlash=0.0035, friction_on_load=0.5), "bl_width", 0.0035),
+    # seen from the load's encoder (bench.load_side.gap_slip), the contact unlike the fit's
+    ("j2", 9141, dict(backlash=0.003, encoder="load"), "bl_width", 0.003),
+    ("j4", 9142, dict(backlash=0.002, contact_hz=80.0, contact_damping=0.3, load_share=0.4,
+                      encoder="load"), "bl_width", 0.002),
 ]
 
 
