@@ -43,16 +43,28 @@ def _spring_slip(c: Conditioned, frequency: float, damping: float) -> tuple[np.n
     w = 2.0 * math.pi * frequency
     num, den, _ = signal.cont2discrete(([1.0], [2.0 * damping * w, w * w]), c.dt, method="foh")
     num = np.ravel(num)
+
+    def lead(v, acc, ia, ib):
+        e, _ = signal.lfilter(num, den, acc, zi=signal.lfilter_zi(num, den) * acc[0])  # from rest
+        return np.gradient(e, c.dt), 0.0
+    return _segment_by_segment(c, lead)
+
+
+def _segment_by_segment(c: Conditioned, lead) -> tuple[np.ndarray, np.ndarray]:
+    """The motor's lead over the load, segment by segment (a gap in the record restarts it):
+    ``lead(v, acc, ia, ib)`` gives, from the load's velocity and acceleration over the
+    intervals ia:ib, (de/dt over each, what the model's load acceleration falls short of the
+    measured one); returns (de/dt, the filtered qdd_m - qdd_l of the model at the samples)."""
     slip = np.empty_like(c.v_mid)
     edd = np.empty_like(c.q_full)
     for (a, b), (ia, ib) in zip(c.segments, c.interval_segments):
         if ib - ia < 3:
             slip[ia:ib], edd[a:b] = 0.0, 0.0
             continue
-        acc = np.gradient(c.v_mid[ia:ib], c.dt)
-        e, _ = signal.lfilter(num, den, acc, zi=signal.lfilter_zi(num, den) * acc[0])  # from rest
-        slip[ia:ib] = np.gradient(e, c.dt)
-        edd[a:b] = interval_to_samples(np.gradient(slip[ia:ib], c.dt))
+        v = np.ascontiguousarray(c.v_mid[ia:ib])
+        acc = np.gradient(v, c.dt)
+        slip[ia:ib], short = lead(v, acc, ia, ib)
+        edd[a:b] = interval_to_samples(np.gradient(slip[ia:ib], c.dt) + short)
     return slip, c.lowpass(edd)
 
 
@@ -163,23 +175,18 @@ def _gap_slip(data: FitData, width: float, motor_inertia: float, p: np.ndarray) 
     # the motor's presliding resolved as the virtual joint resolves it (the contact's law is
     # solved exactly per step)
     n_sub = terms.substeps_for(c.dt, motor_inertia, p[4], p[5], p[6])
-    slip = np.empty_like(c.v_mid)
-    edd = np.empty_like(c.q_full)
-    for (a, b), (ia, ib) in zip(c.segments, c.interval_segments):
-        if ib - ia < 3:
-            slip[ia:ib], edd[a:b] = 0.0, 0.0
-            continue
-        v = np.ascontiguousarray(c.v_mid[ia:ib])
-        acc = np.gradient(v, c.dt)
-        slip[ia:ib], free = terms.motor_lead(acc, np.ascontiguousarray(c.tau_mid[ia:ib]), v,
-                                             c.dt, n_sub, gap, w2, c2, motor_inertia, p)
+
+    def lead(v, acc, ia, ib):
+        slip, free = terms.motor_lead(acc, np.ascontiguousarray(c.tau_mid[ia:ib]), v,
+                                      c.dt, n_sub, gap, w2, c2, motor_inertia, p)
         # the model's load coasts in the gap: its acceleration there is zero, not the measured
         # one, so the gap predicts tau itself and the measured M qdd_l is left in the residual
         # (fed the measured one, a motor with nearly the joint's inertia floating in a wide gap
         # copied the measurement, noise and all: tuning seed 1511 ran to the share's bound)
-        edd[a:b] = interval_to_samples(np.gradient(slip[ia:ib], c.dt) + free * acc)
+        return slip, free * acc
+    slip, edd = _segment_by_segment(c, lead)
     lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
     ones_ = ones(len(c.v_mid))
     along = c.lowpass(lugre_samples(data, lugre, ones_, ones_, v=c.v_mid + slip)
                       - lugre_samples(data, lugre, ones_, ones_))
-    return slip, c.lowpass(edd), along
+    return slip, edd, along
