@@ -9,6 +9,7 @@ from typer.testing import CliRunner
 
 from bench.analysis import analyze_record
 from bench.cli import app as cli_app
+from bench.effects.backlash import MOTOR_SHARE
 from bench.effects.inject import parse_injections
 from bench.errors import InputError
 from virtual_drives.joint import simulate_record
@@ -154,3 +155,23 @@ def test_a_spring_seen_from_the_load_through_a_pc_logger(tmp_path):
     doc = json.loads(js.read_text())
     assert doc["diagnosis"][0]["effect"] == "joint_flexibility" and doc["diagnosis"][0]["significant"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["flex_frequency"] / 4.2 - 1) < 0.10
+
+
+def test_backlash_seen_from_the_load_through_a_pc_logger(tmp_path):
+    """A load-side record of a geared joint with backlash from a PC logger (jittered steps,
+    lost samples, stalls): named and measured, and the motor's inertia, which such a record
+    does not pin down, is not reported as measured when it sits at a bound of its share."""
+    csv, js = tmp_path / "j2.csv", tmp_path / "j2.json"
+    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j2", "--seed", "5881", "--encoder", "load",
+                                     "--condition", "jittered timestamps with dropped samples",
+                                     "--effect", "backlash:width=0.003", "-o", str(csv)])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(js.read_text())
+    top = doc["diagnosis"][0]
+    assert top["effect"] == "backlash" and top["significant"], doc["diagnosis"][:3]
+    assert abs(doc["final"]["parameters"]["bl_width"] / 0.003 - 1) < 0.10, doc["final"]["parameters"]
+    share = doc["final"]["parameters"]["bl_motor"] / PRESETS["j2"].inertia
+    at_bound = share < 1.05 * MOTOR_SHARE[0] or share > 0.95 * MOTOR_SHARE[1]
+    assert ("not resolved" in top["evidence"]) == at_bound, (share, top["evidence"])
