@@ -34,19 +34,19 @@ from bench.load_side import gap_friction, gap_slip
 # 4.6 on j3 with half its friction beyond 3.5 mrad of backlash (independent simulator, seed
 # 9133), trading against Fc and alpha.
 CONTACT_HZ_RANGE = (20.0, 250.0)
+CONTACT_DAMPING_RANGE = (0.02, 1.0)
 # Seen from a load-side encoder the motor's inertia sets how fast it crosses the gap.  It is a
 # share of the joint's: a motor with all of it would float in a wide gap and "predict" the
-# measurement itself (tau - M qdd_l: on tuning seed 1511, 0.0 % of Fc left at 1.25x the width
-# and 2x the motor's inertia).  The geared presets carry 50 %; a rotor reflected through a
-# high ratio can carry most of a light arm's.
+# measurement itself (tau - M qdd_l; on tuning seed 1511, before the model's load coasted in
+# the gap, 0.0 % of Fc was left at 1.25x the width and 2x the motor's inertia).  The geared
+# presets carry 50 %; a rotor reflected through a high ratio can carry most of a light arm's.
 MOTOR_SHARE = (0.02, 0.9)
-CONTACT_DAMPING_RANGE = (0.02, 1.0)
 
 
 # Seen from the load, a light motor crosses the gap in a time set by play x inertia: the two are
 # then not separated.  Twice the play with half the motor's inertia (and half with twice) left
 # 3.9-126x the error on the geared presets and 1.04-1.8x on the direct drives (rotary motor,
-# linear stage: fitted widths 2.2-2.7x the truth there), tuning seeds 1511-1522
+# linear stage, whose fitted widths came out up to 2.7x the truth), tuning seeds 1511-1522
 SEPARABLE = 2.0
 
 

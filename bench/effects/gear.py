@@ -227,7 +227,7 @@ class GearEffect(Effect):
         return super().fd_step(key, ctx)
 
     def load_share(self, values, ctx: Context) -> str:
-        M_l = values.get("bl_load", 0.0) + values.get("flex_load", 0.0) + values.get("bl_motor", 0.0)
+        M_l = sum(values.get(k, 0.0) for k in ("bl_load", "flex_load", "bl_motor"))
         # the inertia beyond the gear from the encoder: the load's, or from a load-side encoder the motor's
         side = "motor side" if ctx.data.load_encoder else "load side"
         return f"{side} {M_l:.3g} of the joint's {ctx.inertia:.3g} inertia ({M_l / ctx.inertia:.0%})"
