@@ -93,7 +93,6 @@ def gap_slip(data: FitData, width: float, motor_inertia: float) -> tuple[np.ndar
                        lambda: _gap_slip(data, width, motor_inertia, p))
 
 
-_CONTACT_CACHE: dict = {}
 # A reversal of the load's acceleration is one that leaves a dead band of 5 % of its top (noise
 # near zero is none), 1 % below a tenth of the top speed: a motor creeping off a stick can part
 # from the load with the acceleration barely stirring (j1 with 3.9 mrad, tuning seed 1541: with
@@ -106,12 +105,13 @@ def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
     """The friction a motor crosses a gap against (the kernels' order): LuGre identified on
     the record with the gap's events left out, so that only the joint in contact is fitted,
     where the load-side encoder reads the motor but for a constant offset.  The flanks part
-    where the load's acceleration reverses during motion; each such reversal is masked with
-    2.5 periods of the comparison filter's cutoff either side (the gap, the impact and the
-    filter's spread).  On tuning seeds 1511-1515 this recovered Fc, Fs and sigma2 within
-    0.5 % where the plain fit was 80 % to 100 % off (or Fs 50x Fc).  Remembered per record (the first
-    friction estimate asked with: four numbers of the friction's level, not of the effect).
-    ``start``: LuGre values to start one more fit from (the whole record's)."""
+    where the load's acceleration reverses, in motion or creeping off a stick; each reversal
+    is masked with 2.5 periods of the comparison filter's cutoff either side (the gap, the
+    impact and the filter's spread).  On tuning seeds 1511-1515 this recovered Fc, Fs and
+    sigma2 within 0.5 % where the plain fit was 80 % to 100 % off (or Fs 50x Fc).  Kept on
+    the record (the first friction estimate asked with: four numbers of the friction's level,
+    not of the effect).  ``start``: LuGre values to start one more fit from (the whole
+    record's).  Raises NotIdentifiable when nothing can be fitted in contact."""
     def make():
         from bench.fitting import LUGRE_KEYS, FitData, Param, fit
         from bench.identify import NotIdentifiable, _fit_lugre, lugre_starts, section3_estimates
@@ -137,10 +137,10 @@ def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
         for g0, g1 in c.grid_segments:
             edges[g0 + min(20, (g1 - g0) // 4):max(g1 - 20, g0)] = True
         wide = FitData(c=c, friction=data.friction, mask=edges & ~events, z0=0.0, revolute=data.revolute)
-        res = _fit_lugre(contact, section3_estimates(contact, data.inertia, revolute=data.revolute), data.inertia)
-        z0 = contact.z0
-        others = [start] if start else []
+        res, others = None, [start] if start else []
         try:
+            res = _fit_lugre(contact, section3_estimates(contact, data.inertia, revolute=data.revolute),
+                             data.inertia)
             others.append(_fit_lugre(wide, section3_estimates(wide, data.inertia, revolute=data.revolute),
                                      data.inertia).values)
             # ...and Section III's starts read off the whole record's map, where the masked
@@ -155,16 +155,23 @@ def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
                 others += [dict(pre, **{k: est[k] for k in ("Fc", "Fs", "alpha", "sigma2")})
                            for pre in [res.values] + ([start] if start else [])]
         except (NotIdentifiable, ValueError, FloatingPointError):
-            pass
+            pass     # too little left in contact for a search of its own: the starts given
+        z0 = contact.z0
         for values in others:
             contact.z0 = z0
             other = fit(contact, [Param(k, values[k], lo=math.log(values[k]) - 9, hi=math.log(values[k]) + 9)
                                   for k in LUGRE_KEYS])
-            if other.cost < res.cost:
+            if res is None or other.cost < res.cost:
                 res = other
+        if res is None:
+            raise NotIdentifiable("no LuGre fit in contact to cross a gap against")
         return np.array([res.values[k] for k in ("Fc", "Fs", "alpha")] + [1.0]
                         + [res.values[k] for k in ("sigma0", "sigma1", "sigma2")])
-    return _per_record(_CONTACT_CACHE, data.c, (), make).copy()
+    # kept on the record itself, for as long as it lives
+    kept = data.c.__dict__.setdefault("_gap_friction", [])
+    if not kept:
+        kept.append(make())
+    return kept[0].copy()
 
 
 def _gap_slip(data: FitData, width: float, motor_inertia: float, p: np.ndarray) -> tuple:

@@ -10,7 +10,7 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import Context, Effect, number
-from bench.errors import InputError
+from bench.errors import InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS, Param
 from bench.gear_model import gear_unit_term
 from bench.load_side import gap_friction, gap_slip, spring_slip
@@ -120,7 +120,10 @@ def best_gaps(ctx: Context, widths: list[float], count: int = 2) -> list[tuple[f
     by being scaled down (tuning seeds 1512-1515: 0.93-1.0 at the true width, 0.4-0.8 at
     half or twice it)."""
     data, c, m = ctx.data, ctx.data.c, ctx.data.mask
-    p = gap_friction(data, start={k: ctx.values[k] for k in LUGRE_KEYS})
+    try:
+        p = gap_friction(data, start={k: ctx.values[k] for k in LUGRE_KEYS})
+    except NotIdentifiable:
+        return []       # nothing in contact to fit the motor's friction on: no gap is tried
     lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
     ones_ = np.ones(len(c.v_mid))
     r0 = (data.friction - c.lowpass(lugre_samples(data, lugre, ones_, ones_)))[m]
