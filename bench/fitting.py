@@ -129,9 +129,9 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
 
 def cleaned(data: FitData, values: dict, appliers: list[Applier] = ()) -> FitData:
     """The friction estimate with the effects' contribution removed, to re-identify LuGre on.
-    A gear spring or backlash seen from the load leaves the friction on the *motor's* velocity: the cleaned
-    record is then the motor's (velocity v_l + de/dt, its inertia term M_m e'' removed), so
-    LuGre is identified where it acts, not bent by the ringing of the load's."""
+    A gear spring or backlash seen from the load leaves the friction on the *motor's*
+    velocity: the cleaned record is then the motor's (velocity v_l + de/dt, its inertia term
+    M_m e'' removed), so LuGre is identified where it acts, not bent by the load's motion."""
     lugre_only = {k: values[k] for k in LUGRE_KEYS}
     f = values.get("flex_frequency", 0.0)
     gap = values.get("bl_width", 0.0) if values.get("bl_motor", 0.0) > 0 else 0.0

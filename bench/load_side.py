@@ -11,7 +11,7 @@ import numpy as np
 from scipy import signal
 
 from bench import terms
-from bench.gear_model import _per_record
+from bench.gear_model import _kernel_order, _per_record
 from bench.lugre import interval_to_samples
 from bench.model_trace import lugre_samples, ones
 from bench.signals import Conditioned
@@ -87,10 +87,9 @@ def gap_slip(data: FitData, width: float, motor_inertia: float) -> tuple[np.ndar
     the second: within the gap the model is then tau itself.  It depends on the LuGre values
     being fitted only through the friction's level in contact, so it is taken at the
     contact fit's and cached: a joint fit's steps then cost no simulation."""
-    c = data.c
-    p = gap_friction(data)
-    return _per_record(_GAP_CACHE, c, (width, motor_inertia, *p),
-                       lambda: _gap_slip(data, width, motor_inertia, p))
+    lugre = gap_friction(data)
+    return _per_record(_GAP_CACHE, data.c, (width, motor_inertia, *_kernel_order(lugre)),
+                       lambda: _gap_slip(data, width, motor_inertia, lugre))
 
 
 # A reversal of the load's acceleration is one that leaves a dead band of 5 % of its top (noise
@@ -101,8 +100,8 @@ def gap_slip(data: FitData, width: float, motor_inertia: float) -> tuple[np.ndar
 DEAD_BAND, LOW_DEAD_BAND, LOW_SPEED = 0.05, 0.01, 0.1
 
 
-def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
-    """The friction a motor crosses a gap against (the kernels' order): LuGre identified on
+def gap_friction(data: FitData, start: dict | None = None) -> dict:
+    """The friction a motor crosses a gap against: LuGre values (with "delta") identified on
     the record with the gap's events left out, so that only the joint in contact is fitted,
     where the load-side encoder reads the motor but for a constant offset.  The flanks part
     where the load's acceleration reverses, in motion or creeping off a stick; each reversal
@@ -165,17 +164,16 @@ def gap_friction(data: FitData, start: dict | None = None) -> np.ndarray:
                 res = other
         if res is None:
             raise NotIdentifiable("no LuGre fit in contact to cross a gap against")
-        return np.array([res.values[k] for k in ("Fc", "Fs", "alpha")] + [1.0]
-                        + [res.values[k] for k in ("sigma0", "sigma1", "sigma2")])
+        return dict(res.values, delta=1.0)
     # kept on the record itself, for as long as it lives
     kept = data.c.__dict__.setdefault("_gap_friction", [])
     if not kept:
         kept.append(make())
-    return kept[0].copy()
+    return dict(kept[0])
 
 
-def _gap_slip(data: FitData, width: float, motor_inertia: float, p: np.ndarray) -> tuple:
-    c = data.c
+def _gap_slip(data: FitData, width: float, motor_inertia: float, lugre: dict) -> tuple:
+    c, p = data.c, _kernel_order(lugre)
     ev = terms.empty()
     ev[terms.BACKLASH] = width
     gap, w2, c2 = terms.coupling(ev)
@@ -192,7 +190,6 @@ def _gap_slip(data: FitData, width: float, motor_inertia: float, p: np.ndarray) 
         # copied the measurement, noise and all: tuning seed 1511 ran to the share's bound)
         return slip, free * acc
     slip, edd = _segment_by_segment(c, lead)
-    lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
     ones_ = ones(len(c.v_mid))
     along = c.lowpass(lugre_samples(data, lugre, ones_, ones_, v=c.v_mid + slip)
                       - lugre_samples(data, lugre, ones_, ones_))

@@ -117,8 +117,7 @@ class Backlash(GearEffect):
         # 5 % of the inertia with structure left, where the contact fit leaves 0.1 % of Fc
         if not ctx.data.load_encoder:
             return None
-        p = gap_friction(ctx.data)
-        lugre = {k: float(x) for k, x in zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), p)}
+        lugre = gap_friction(ctx.data)
         return {**{k: lugre[k] for k in LUGRE_KEYS}, "bl_motor": 0.5 * ctx.inertia}
 
     def credible(self, values, ctx):

@@ -121,10 +121,9 @@ def best_gaps(ctx: Context, widths: list[float], count: int = 2) -> list[tuple[f
     half or twice it)."""
     data, c, m = ctx.data, ctx.data.c, ctx.data.mask
     try:
-        p = gap_friction(data, start={k: ctx.values[k] for k in LUGRE_KEYS})
+        lugre = gap_friction(data, start={k: ctx.values[k] for k in LUGRE_KEYS})
     except NotIdentifiable:
         return []       # nothing in contact to fit the motor's friction on: no gap is tried
-    lugre = dict(zip(("Fc", "Fs", "alpha", "delta", "sigma0", "sigma1", "sigma2"), map(float, p)))
     ones_ = np.ones(len(c.v_mid))
     r0 = (data.friction - c.lowpass(lugre_samples(data, lugre, ones_, ones_)))[m]
     rr = float(r0 @ r0) or 1.0

@@ -125,17 +125,26 @@ def test_a_gear_spring_seen_from_the_load_is_named_measured_and_cuts_the_error(j
     assert "motor side" in top["evidence"]
 
 
+def _load_side_report(tmp_path, joint, seed, effect, *condition):
+    """``bench simulate --encoder load`` then ``bench analyze``, through the command line:
+    (the CSV's text, the JSON report)."""
+    csv, js = tmp_path / f"{joint}.csv", tmp_path / f"{joint}.json"
+    r = CliRunner().invoke(cli_app, ["simulate", "--joint", joint, "--seed", str(seed), "--encoder", "load",
+                                     *condition, "--effect", effect, "-o", str(csv)])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
+    assert r.exit_code == 0, r.output
+    return csv.read_text(), json.loads(js.read_text())
+
+
+LOGGER = ("--condition", "jittered timestamps with dropped samples")
+
+
 def test_the_command_line_records_a_spring_from_the_load_and_the_report_names_it(tmp_path):
     """bench simulate --encoder load writes ``encoder: load``; bench analyze fits the spring
     from the load's motion and says the inertia beyond it is the motor's."""
-    csv, js = tmp_path / "j3.csv", tmp_path / "j3.json"
-    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j3", "--seed", "5861", "--encoder", "load",
-                                     "--effect", "joint_flexibility:frequency=4.5", "-o", str(csv)])
-    assert r.exit_code == 0, r.output
-    assert "# encoder: load" in csv.read_text()
-    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
-    assert r.exit_code == 0, r.output
-    doc = json.loads(js.read_text())
+    text, doc = _load_side_report(tmp_path, "j3", 5861, "joint_flexibility:frequency=4.5")
+    assert "# encoder: load" in text
     top = doc["diagnosis"][0]
     assert top["effect"] == "joint_flexibility" and top["significant"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["flex_frequency"] / 4.5 - 1) < 0.10
@@ -145,14 +154,7 @@ def test_the_command_line_records_a_spring_from_the_load_and_the_report_names_it
 def test_a_spring_seen_from_the_load_through_a_pc_logger(tmp_path):
     """A load-side record from a PC logger (jittered steps, lost samples, stalls: the record is
     analysed in segments between its gaps) still has its spring named and measured."""
-    csv, js = tmp_path / "j1.csv", tmp_path / "j1.json"
-    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j1", "--seed", "5862", "--encoder", "load",
-                                     "--condition", "jittered timestamps with dropped samples",
-                                     "--effect", "joint_flexibility:frequency=4.2,damping=0.06", "-o", str(csv)])
-    assert r.exit_code == 0, r.output
-    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
-    assert r.exit_code == 0, r.output
-    doc = json.loads(js.read_text())
+    _, doc = _load_side_report(tmp_path, "j1", 5862, "joint_flexibility:frequency=4.2,damping=0.06", *LOGGER)
     assert doc["diagnosis"][0]["effect"] == "joint_flexibility" and doc["diagnosis"][0]["significant"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["flex_frequency"] / 4.2 - 1) < 0.10
 
@@ -161,14 +163,7 @@ def test_backlash_seen_from_the_load_through_a_pc_logger(tmp_path):
     """A load-side record of a geared joint with backlash from a PC logger (jittered steps,
     lost samples, stalls): named and measured, and the motor's inertia, which such a record
     does not pin down, is not reported as measured when it sits at a bound of its share."""
-    csv, js = tmp_path / "j2.csv", tmp_path / "j2.json"
-    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j2", "--seed", "5881", "--encoder", "load",
-                                     "--condition", "jittered timestamps with dropped samples",
-                                     "--effect", "backlash:width=0.003", "-o", str(csv)])
-    assert r.exit_code == 0, r.output
-    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
-    assert r.exit_code == 0, r.output
-    doc = json.loads(js.read_text())
+    _, doc = _load_side_report(tmp_path, "j2", 5881, "backlash:width=0.003", *LOGGER)
     top = doc["diagnosis"][0]
     assert top["effect"] == "backlash" and top["significant"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["bl_width"] / 0.003 - 1) < 0.10, doc["final"]["parameters"]
