@@ -22,7 +22,8 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import Context, check_known, explained_text, number
-from bench.effects.gear import GearEffect, best_gaps, best_gears, format_angle
+from bench.effects.joint_flexibility import MAX_DAMPING
+from bench.effects.gear import GearEffect, best_gaps, best_gears, format_angle, gear_scorer
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
 from bench.load_side import gap_friction, gap_slip
@@ -67,6 +68,45 @@ def width_inertia_trade(values: dict, ctx: Context) -> float:
     return min(ratios)
 
 
+# A gear that is both loose and compliant (a spur or planetary stage whose teeth and shafts
+# bend): its flanks meet through a spring in the joint's band rather than a stiff contact.
+# Tried beside the stiff contact's best width when its term explains clearly more
+# The spring may lie above the comparison band: each meeting of the flanks kicks it, and what
+# the kick leaves shows inside the band (12 Hz springs on j1 and j3's 10 Hz bands, tuning
+# seeds 1726, 1741)
+SOFT_HZ_MIN = 1.0
+SOFT_BAND = 2.0
+SOFT_GAIN, SOFT_LEFT = 1.2, 0.5
+SOFT_DAMPINGS = (0.05, 0.1, 0.2, 0.4)
+
+
+def compliant_gear(ctx: Context, pick: tuple) -> tuple | None:
+    """(width, spring frequency, damping, kappa) of a compliant gear around ``pick``'s width
+    (a stiff contact's), when its term explains ``SOFT_GAIN`` times the share or leaves
+    ``SOFT_LEFT`` of what the stiff one leaves (j3, seed 1741: 0.96 against 0.80)."""
+    c = ctx.data.c
+    lo, hi = max(2.0 * c.frequency, SOFT_HZ_MIN), min(SOFT_BAND * c.cutoff, CONTACT_HZ_RANGE[0])
+    if hi <= lo:
+        return None
+    score = gear_scorer(ctx)
+    w0, _, _, k = pick
+    stiff = score(pick)
+    # (the spring winds up beyond the play, so a stiff contact's width comes out wide: 4.0
+    # mrad for 2.5 behind a 5 Hz spring on j4, seed 1764)
+    grid = [(w0 * fw, f, z, k) for fw in np.geomspace(0.5, 1.25, 13)
+            for f in np.geomspace(lo, hi, 20) for z in SOFT_DAMPINGS]
+    # a lightly damped spring rattles in the gap: the score is sharp in all three, so the
+    # best few of the coarse grid are refined on a local one (j3, seed 1763: 9 Hz, damping
+    # 0.15, between the coarse grid's points)
+    coarse = sorted(((score(g), g) for g in grid), key=lambda s: -s[0])[:3]
+    best, g = coarse[0]
+    for _, (w, f, z, _) in coarse:
+        local = [(w * a, f * b, z * d, k) for a in np.geomspace(0.94, 1.06, 5)
+                 for b in np.geomspace(0.88, 1.13, 5) for d in np.geomspace(0.6, 1.6, 5)]
+        best, g = max([(best, g)] + [(score(x), x) for x in local], key=lambda s: s[0])
+    return g if best > SOFT_GAIN * stiff or 1.0 - best < SOFT_LEFT * (1.0 - stiff) else None
+
+
 class Backlash(GearEffect):
     name = "backlash"
     signals = ("travel_since_reversal",)
@@ -88,9 +128,15 @@ class Backlash(GearEffect):
             return [{"bl_width": w, "bl_motor": m, "bl_slip": 0.0, "bl_joint": ctx.inertia}
                     for w, m in best_gaps(ctx, widths)]
         grid = [(w, 0.0, 0.0) for w in widths]
-        return [dict({"bl_width": w, "bl_load": 0.0, "bl_kappa": k},
-                     **({"bl_contact": terms.CONTACT_HZ, "bl_contact_damping": terms.CONTACT_DAMPING} if k > 0 else {}))
-                for w, _, _, k in best_gears(ctx, grid)]
+        picks = best_gears(ctx, grid)
+        out = [dict({"bl_width": w, "bl_load": 0.0, "bl_kappa": k},
+                    **({"bl_contact": terms.CONTACT_HZ, "bl_contact_damping": terms.CONTACT_DAMPING} if k > 0 else {}))
+               for w, _, _, k in picks]
+        soft = compliant_gear(ctx, picks[0]) if picks else None
+        if soft is not None:
+            w, f, z, k = soft
+            out.append({"bl_width": w, "bl_load": 0.0, "bl_kappa": k, "bl_contact": f, "bl_contact_damping": z})
+        return out
 
     def params(self, init):
         if "bl_motor" in init:      # seen from the load: the motor's inertia drives the lead
@@ -99,6 +145,12 @@ class Backlash(GearEffect):
                     Param("bl_motor", init["bl_motor"], log=True, lo=math.log(MOTOR_SHARE[0] * M),
                           hi=math.log(MOTOR_SHARE[1] * M))]
         out = [Param("bl_width", init["bl_width"], log=True), self.load_param(init)] + self.kappa_params(init)
+        if init.get("bl_contact", terms.CONTACT_HZ) < CONTACT_HZ_RANGE[0]:
+            # a compliant gear (compliant_gear): its spring is what the fit is after
+            return out + [Param("bl_contact", init["bl_contact"], log=True, lo=math.log(SOFT_HZ_MIN),
+                                hi=math.log(CONTACT_HZ_RANGE[0])),
+                          Param("bl_contact_damping", init["bl_contact_damping"], log=True,
+                                lo=math.log(CONTACT_DAMPING_RANGE[0]), hi=math.log(CONTACT_DAMPING_RANGE[1]))]
         if init.get(self.kappa_key, 0.0) > 0:
             # with friction beyond the gear the load sticks and the contact's ringing shows;
             # with all of it on the motor the contact is flat in the fit, and a flat direction
@@ -123,6 +175,11 @@ class Backlash(GearEffect):
     def credible(self, values, ctx):
         if "bl_motor" in values:    # (its share is bounded in the fit)
             return True
+        if values.get("bl_contact", terms.CONTACT_HZ) < CONTACT_HZ_RANGE[0]:
+            # a compliant gear's spring as a gear spring's (joint_flexibility): near the
+            # comparison band, and ringing rather than a smooth low-pass
+            if values["bl_contact"] > SOFT_BAND * ctx.data.c.cutoff or values["bl_contact_damping"] > MAX_DAMPING:
+                return False
         return self.gear_credible(values, ctx)
 
     def apply(self, values, extra, ev):
@@ -171,6 +228,10 @@ class Backlash(GearEffect):
 
     def contact_text(self, values) -> str:
         f, z = values.get("bl_contact", terms.CONTACT_HZ), values.get("bl_contact_damping", terms.CONTACT_DAMPING)
+        if f < CONTACT_HZ_RANGE[0]:
+            return (f"; the gear is compliant as well (joint_flexibility, one spring with the play): the "
+                    f"flanks meet through a {f:.3g} Hz spring (locked rotor), damping ratio {z:.2g}, so keep "
+                    f"the position loop's bandwidth well below it (about {f / 3:.2g} Hz)")
         if abs(f / terms.CONTACT_HZ - 1) < 0.2 and abs(z / terms.CONTACT_DAMPING - 1) < 0.2:
             return ""
         return f"; the flanks meet through a {f:.3g} Hz contact, damping ratio {z:.2g}"
