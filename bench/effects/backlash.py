@@ -22,8 +22,8 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import Context, check_known, explained_text, number
-from bench.effects.joint_flexibility import MAX_DAMPING
 from bench.effects.gear import GearEffect, best_gaps, best_gears, format_angle, gear_scorer
+from bench.effects.joint_flexibility import MAX_DAMPING
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, Param
 from bench.load_side import gap_friction, gap_slip
@@ -69,10 +69,10 @@ def width_inertia_trade(values: dict, ctx: Context) -> float:
 
 
 # A gear that is both loose and compliant (a spur or planetary stage whose teeth and shafts
-# bend): its flanks meet through a spring in the joint's band rather than a stiff contact.
-# Tried beside the stiff contact's best width when its term explains clearly more
-# The spring may lie above the comparison band: each meeting of the flanks kicks it, and what
-# the kick leaves shows inside the band (12 Hz springs on j1 and j3's 10 Hz bands, tuning
+# bend) has its flanks meet through a spring in the joint's band, not a stiff contact: tried
+# around the stiff contact's best width (compliant_gears).  The spring may lie above the
+# comparison band (up to SOFT_BAND x its edge): each meeting of the flanks kicks it, and what
+# the kick leaves shows inside the band (12 Hz springs in j1's and j3's 10 Hz bands, tuning
 # seeds 1726, 1741)
 SOFT_HZ_MIN = 1.0
 SOFT_BAND = 2.0

@@ -27,12 +27,13 @@ def format_angle(x: float, unit: str) -> str:
 # Shares of the friction beyond the gear tried on the signature grid, as kappa M_jj (kappa =
 # share / M_load): about all of it on a load of half the joint's inertia (half of it on a
 # lighter one), and about 30 %.  The joint fit then refines kappa and the load together; from
-# 2.0 alone it did not reach 20 % on j2 (independent simulator, tuning seed 1723).  Where the friction
-# sits depends on the gear (motor bearings and the wave generator before it, the output
+# 2.0 alone it did not reach 20 % on j2 (independent simulator, tuning seed 1723).  Where the
+# friction sits depends on the gear (motor bearings and the wave generator before it, the output
 # bearing and the mesh after): the paper lumps it on the motor, where it identifies it.
 KAPPA_GRID = (2.0, 0.6)
 # ... tried only on a second pass (``friction_beyond_gear``), when the diagnosis without it left
-# a structure that follows the travel since the last reversal (bench.analysis): a gear with
+# a structure that follows the travel since the last reversal or credited a position series
+# (bench.analysis): a gear with
 # friction on both sides is flexible enough to take part of physics it has nothing to do with
 # (a saturating torque constant on j1-j3, test seeds 5902-5909), and ten times dearer to fit
 _BEYOND = ContextVar("friction_beyond_gear", default=False)
