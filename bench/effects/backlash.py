@@ -79,7 +79,7 @@ SOFT_HZ_MIN = 1.0
 SOFT_BAND = 2.0
 SOFT_GAIN, SOFT_LEFT = 1.2, 0.5
 # ...searched only when the stiff contact already explains this share (0.25-0.83 on the
-# compliant gears of tuning seeds 1726-1764): the search is some 900 gear runs, a third of a
+# compliant gears of tuning seeds 1726-1764): the search is some 1,400 gear runs, most of a
 # 60 s record's analysis on a record with no gear at all
 SOFT_MIN_STIFF = 0.15
 SOFT_DAMPINGS = (0.05, 0.1, 0.2, 0.4)
@@ -105,8 +105,8 @@ def compliant_gears(ctx: Context, pick: tuple) -> list[tuple]:
         return []
     # (the spring winds up beyond the play, so a stiff contact's width comes out wide: 4.0
     # mrad for 2.5 behind a 5 Hz spring on j4, seed 1764)
-    grid = [(w0 * fw, f, z, k) for fw in np.geomspace(0.5, 1.25, 9)
-            for f in np.geomspace(lo, hi, 16) for z in SOFT_DAMPINGS]
+    grid = [(w0 * fw, f, z, k) for fw in np.geomspace(0.5, 1.25, 13)
+            for f in np.geomspace(lo, hi, 20) for z in SOFT_DAMPINGS]
     # a lightly damped spring rattles in the gap: the score is sharp in all three, so the
     # best few of the coarse grid are refined on a local one (j3, seed 1763: 9 Hz, damping
     # 0.15, between the coarse grid's points); the two best, as the grid's score on the
