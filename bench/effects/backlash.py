@@ -98,10 +98,12 @@ def compliant_gears(ctx: Context, pick: tuple) -> list[tuple]:
     lo, hi = max(2.0 * c.frequency, SOFT_HZ_MIN), min(SOFT_BAND * c.cutoff, CONTACT_HZ_RANGE[0])
     if hi <= lo:
         return []
-    score = gear_scorer(ctx)
     w0, _, _, k = pick
+    if k > 0:       # with friction beyond the gear: not handled
+        return []
+    score = gear_scorer(ctx)
     stiff = score(pick)
-    if k > 0 or stiff < SOFT_MIN_STIFF:     # (with friction beyond the gear: not handled)
+    if stiff < SOFT_MIN_STIFF:
         return []
     # (the spring winds up beyond the play, so a stiff contact's width comes out wide: 4.0
     # mrad for 2.5 behind a 5 Hz spring on j4, seed 1764)
@@ -126,6 +128,11 @@ def compliant_gears(ctx: Context, pick: tuple) -> list[tuple]:
     return out[:2]
 
 
+def compliant(values: dict) -> bool:
+    """Do these values (or a variant's) describe a compliant gear, a spring below a contact's?"""
+    return values.get("bl_contact", terms.CONTACT_HZ) < CONTACT_HZ_RANGE[0]
+
+
 def play_matters(values: dict, ctx: Context) -> float:
     """How much more error the fitted compliant gear leaves with its play taken out (the same
     spring, the load's inertia refitted): 1 when the play is not measured."""
@@ -140,6 +147,14 @@ def play_matters(values: dict, ctx: Context) -> float:
     tt = float(without @ without)
     left = y - (float(without @ y) / tt if tt > 0 else 0.0) * without
     return float(np.sqrt(np.mean(left ** 2)) / max(np.sqrt(np.mean(r ** 2)), 1e-300))
+
+
+def _contact_params(init: dict, hz: tuple[float, float]) -> list[Param]:
+    """The flanks' contact (or a compliant gear's spring) within ``hz``, and its damping."""
+    return [Param("bl_contact", init.get("bl_contact", terms.CONTACT_HZ), log=True,
+                  lo=math.log(hz[0]), hi=math.log(hz[1])),
+            Param("bl_contact_damping", init.get("bl_contact_damping", terms.CONTACT_DAMPING), log=True,
+                  lo=math.log(CONTACT_DAMPING_RANGE[0]), hi=math.log(CONTACT_DAMPING_RANGE[1]))]
 
 
 class Backlash(GearEffect):
@@ -178,21 +193,14 @@ class Backlash(GearEffect):
                     Param("bl_motor", init["bl_motor"], log=True, lo=math.log(MOTOR_SHARE[0] * M),
                           hi=math.log(MOTOR_SHARE[1] * M))]
         out = [Param("bl_width", init["bl_width"], log=True), self.load_param(init)] + self.kappa_params(init)
-        if init.get("bl_contact", terms.CONTACT_HZ) < CONTACT_HZ_RANGE[0]:
-            # a compliant gear (compliant_gears): its spring is what the fit is after
-            return out + [Param("bl_contact", init["bl_contact"], log=True, lo=math.log(SOFT_HZ_MIN),
-                                hi=math.log(CONTACT_HZ_RANGE[0])),
-                          Param("bl_contact_damping", init["bl_contact_damping"], log=True,
-                                lo=math.log(CONTACT_DAMPING_RANGE[0]), hi=math.log(CONTACT_DAMPING_RANGE[1]))]
+        if compliant(init):     # (compliant_gears): its spring is what the fit is after
+            return out + _contact_params(init, (SOFT_HZ_MIN, CONTACT_HZ_RANGE[0]))
         if init.get(self.kappa_key, 0.0) > 0:
             # with friction beyond the gear the load sticks and the contact's ringing shows;
             # with all of it on the motor the contact is flat in the fit, and a flat direction
             # unsettles the held-out scoring's linear correction (j2, test seed 5090: 0.70 in
             # sample, 24.6 held out): the virtual joint's contact is kept there
-            out += [Param("bl_contact", init.get("bl_contact", terms.CONTACT_HZ), log=True,
-                          lo=math.log(CONTACT_HZ_RANGE[0]), hi=math.log(CONTACT_HZ_RANGE[1])),
-                    Param("bl_contact_damping", init.get("bl_contact_damping", terms.CONTACT_DAMPING), log=True,
-                          lo=math.log(CONTACT_DAMPING_RANGE[0]), hi=math.log(CONTACT_DAMPING_RANGE[1]))]
+            out += _contact_params(init, CONTACT_HZ_RANGE)
         return out
 
     def direct_estimate(self, ctx: Context) -> dict | None:
@@ -208,7 +216,7 @@ class Backlash(GearEffect):
     def credible(self, values, ctx):
         if "bl_motor" in values:    # (its share is bounded in the fit)
             return True
-        if values.get("bl_contact", terms.CONTACT_HZ) < CONTACT_HZ_RANGE[0]:
+        if compliant(values):
             # a compliant gear's spring as a gear spring's (joint_flexibility): near the
             # comparison band, and ringing rather than a smooth low-pass
             if values["bl_contact"] > SOFT_BAND * ctx.data.c.cutoff or values["bl_contact_damping"] > MAX_DAMPING:
@@ -216,9 +224,7 @@ class Backlash(GearEffect):
         return self.gear_credible(values, ctx)
 
     def holds(self, values, ctx):
-        if values.get("bl_contact", terms.CONTACT_HZ) >= CONTACT_HZ_RANGE[0] or "bl_motor" in values:
-            return True
-        return play_matters(values, ctx) >= PLAY_MATTERS
+        return not compliant(values) or play_matters(values, ctx) >= PLAY_MATTERS
 
     def apply(self, values, extra, ev):
         extra["backlash"] = values["bl_width"]
@@ -266,7 +272,7 @@ class Backlash(GearEffect):
 
     def contact_text(self, values) -> str:
         f, z = values.get("bl_contact", terms.CONTACT_HZ), values.get("bl_contact_damping", terms.CONTACT_DAMPING)
-        if f < CONTACT_HZ_RANGE[0]:
+        if compliant(values):
             return (f"; the gear is compliant as well (joint_flexibility, one spring with the play): the "
                     f"flanks meet through a {f:.3g} Hz spring (locked rotor), damping ratio {z:.2g}, so keep "
                     f"the position loop's bandwidth well below it (about {f / 3:.2g} Hz)")

@@ -33,9 +33,9 @@ def format_angle(x: float, unit: str) -> str:
 KAPPA_GRID = (2.0, 0.6)
 # ... tried only on a second pass (``friction_beyond_gear``), when the diagnosis without it left
 # a structure that follows the travel since the last reversal or credited a position series
-# (bench.analysis): a gear with
-# friction on both sides is flexible enough to take part of physics it has nothing to do with
-# (a saturating torque constant on j1-j3, test seeds 5902-5909), and ten times dearer to fit
+# (bench.analysis): a gear with friction on both sides is flexible enough to take part of
+# physics it has nothing to do with (a saturating torque constant on j1-j3, test seeds
+# 5902-5909), and ten times dearer to fit
 _BEYOND = ContextVar("friction_beyond_gear", default=False)
 
 
