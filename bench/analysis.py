@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from bench import plots
-from bench.diagnosis import Diagnosis, diagnose, drop_absorbers
+from bench.diagnosis import MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
 from bench.effects.gear import friction_beyond_gear
 from bench.effects.periodic import PositionSeries
 from bench.errors import BenchError, InputError
@@ -25,6 +25,7 @@ from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.unexplained import assess, level_changes, noise_floor, structured
 from bench.validate import in_range, record_magnitudes
+from bench.wide_band import names_a_gear, wider_band, widened_warning
 
 
 @dataclass
@@ -165,6 +166,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
+        if diag is not None and not add and cutoff is None and not names_a_gear(diag):
+            ident, diag = _wider_if_resonant(ident, diag, rec, name)
         _check_finite(ident, diag)
     return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
 
@@ -227,6 +230,29 @@ def _diagnose(ident: Identification, rec: Record, add):
     p = second.final_predictability
     ok = p is not None and not structured(p, data.coulomb, replay_rms, second.final_rms / floor if floor > 0 else None)
     return second if ok and second.final_rms < diag.final_rms else diag
+
+
+def _left_structured(diag: Diagnosis, data) -> bool:
+    """Does the verdict call what the final model leaves structured?"""
+    p, floor = diag.final_predictability, diag.noise_floor
+    return p is None or structured(p, data.coulomb, diag.replay_rms,
+                                   diag.final_rms / floor if floor > 0 else None)
+
+
+def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name: str):
+    """A gear spring above the comparison band (``bench.wide_band``): the analysis at the
+    wider band replaces the default one when it names the spring and leaves no structure the
+    default did not leave."""
+    wide = wider_band(rec, ident, MIN_EXPLAINED_SIZE, name)
+    if wide is None:
+        return ident, diag
+    wide_diag = _diagnose(wide, rec, None)
+    if "joint_flexibility" not in wide_diag.model.names() \
+            or (_left_structured(wide_diag, wide.data) and not _left_structured(diag, ident.data)):
+        return ident, diag
+    wide.warnings.append(widened_warning(ident.data.c.cutoff, wide.data.c.cutoff,
+                                         wide_diag.model.values["flex_frequency"]))
+    return wide, wide_diag
 
 
 # A position series that is real explains the other direction of motion about as well as its
