@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import html
+import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -12,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from bench import plots
-from bench.diagnosis import MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
+from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
 from bench.effects.gear import friction_beyond_gear
 from bench.effects.periodic import PositionSeries
 from bench.errors import BenchError, InputError
@@ -187,7 +188,6 @@ def fit_errors():
 
 
 def _check_finite(ident: Identification, diag: Diagnosis | None) -> None:
-    import math
     fits = [ident.result] + ([diag.model.result] if diag is not None else [])
     values = {k: v for r in fits for k, v in {**r.values, "rms": r.rms, "nrmse": r.nrmse}.items()}
     if diag is not None:
@@ -243,7 +243,7 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
     """A gear spring above the comparison band (``bench.wide_band``): the analysis at the
     wider band replaces the default one when it names the spring and leaves no structure the
     default did not leave."""
-    wide = wider_band(rec, ident, MIN_EXPLAINED_SIZE, name)
+    wide = wider_band(rec, ident, MIN_EXPLAINED_SIZE, math.sqrt(ARTIFACT_RATIO), name)
     if wide is None:
         return ident, diag
     wide_diag = _diagnose(wide, rec, None)
