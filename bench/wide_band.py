@@ -3,8 +3,8 @@
 The comparison low-pass sits at 40x the excitation (``bench.signals.choose_cutoff``: 10 Hz for
 a 0.25 Hz sine), low enough to keep the double differentiation's noise in check.  A harmonic
 drive's resonance at 11-20 Hz then rings beyond it: the filter leaves too little of it for the
-diagnosis to name, yet enough to bend LuGre (independent simulator, tuning seeds 1904-1917:
-Fc 16-68 % low on j3, 10-17 % on j1 with most of the inertia beyond the spring, reported
+diagnosis to name, yet enough to bend LuGre (independent simulator, tuning seeds 1859-1918:
+Fc 16-89 % low on j3, 10-17 % on j1 with most of the inertia beyond the spring, reported
 identifiable, and "nothing left to explain").  Analysed at 3x the cutoff the same records
 name the spring within 1 % and every LuGre parameter within 1 %.
 
