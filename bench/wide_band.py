@@ -6,7 +6,7 @@ drive's resonance at 11-20 Hz then rings beyond it: the filter leaves too little
 diagnosis to name, yet enough to bend LuGre (independent simulator, tuning seeds 1859-1918:
 Fc 16-89 % low on j3, 10-17 % on j1 with most of the inertia beyond the spring, reported
 identifiable, and "nothing left to explain").  Analysed at 3x the cutoff the same records
-name the spring within 1 % and every LuGre parameter within 1 %.
+name the spring within 1 % and Fc, Fs and sigma2 within 3 %.
 
 So, unless the user set the cutoff or a gear was already named: LuGre is identified again at
 a wider band and a gear spring's term scored against what it leaves, between 0.8x the cutoff
