@@ -243,11 +243,13 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
     """A gear spring above the comparison band (``bench.wide_band``): the analysis at the
     wider band replaces the default one when it names the spring and leaves no structure the
     default did not leave."""
-    wide = wider_band(rec, ident, MIN_EXPLAINED_SIZE, math.sqrt(ARTIFACT_RATIO), name)
-    if wide is None:
+    # a probe, not the analysis asked for: if the wider band cannot be fitted, the default stands
+    try:
+        wide = wider_band(rec, ident, MIN_EXPLAINED_SIZE, math.sqrt(ARTIFACT_RATIO), name)
+        wide_diag = _diagnose(wide, rec, None) if wide is not None else None
+    except (BenchError, ValueError, ArithmeticError):    # LinAlgError is a ValueError
         return ident, diag
-    wide_diag = _diagnose(wide, rec, None)
-    if "joint_flexibility" not in wide_diag.model.names() \
+    if wide_diag is None or "joint_flexibility" not in wide_diag.model.names() \
             or (_left_structured(wide_diag, wide.data) and not _left_structured(diag, ident.data)):
         return ident, diag
     wide.warnings.append(widened_warning(ident.data.c.cutoff, wide.data.c.cutoff,

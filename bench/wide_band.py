@@ -29,10 +29,10 @@ WIDEN = 3.0            # the wider band, as a multiple of the default cutoff...
 MAX_BAND = 0.1         # ...at most this fraction of the sample rate (twice choose_cutoff's cap)
 MIN_WIDER = 1.5        # below this ratio the wider band adds too little to be worth a fit
 # A spring's term must explain this share of what LuGre leaves at the wider band.  Tuning
-# seeds: gear springs at 11-20 Hz (j1-j3, 30-80 % of the inertia beyond) 0.62-0.74; clean
-# joints under white and coloured process noise, a friction log, PD tracking and 2 kHz
-# 0.001-0.05; a coarse encoder's staircase on j3 0.34 (the full analysis then does not name a
-# spring: the cost of a second analysis, not a wrong story).
+# seeds (1904-1995): gear springs at 11-80 Hz 0.58-0.85 (0.38 on j3 under coloured process
+# noise); clean joints under white and coloured process noise, a friction log, PD tracking and
+# 2 kHz 0.001-0.05; a coarse encoder's staircase 0.13-0.55, which the replay test below turns
+# away.
 MIN_SHARE = 0.3
 SPRING_DAMPINGS = (0.02, 0.05, 0.1)
 GEAR_EFFECTS = ("backlash", "joint_flexibility")
