@@ -227,8 +227,7 @@ def _diagnose(ident: Identification, rec: Record, add):
     # that only if it leaves nothing and predicts the held-out motion better
     with friction_beyond_gear():
         second = run()
-    p = second.final_predictability
-    ok = p is not None and not structured(p, data.coulomb, replay_rms, second.final_rms / floor if floor > 0 else None)
+    ok = not _left_structured(second, data)
     return second if ok and second.final_rms < diag.final_rms else diag
 
 
@@ -287,8 +286,7 @@ def _gear_hysteresis_left(diag: Diagnosis, data) -> bool:
     p = diag.final_predictability
     if p is None or "travel_since_reversal" not in p.get("relies_on", [])[:3]:
         return False
-    floor = diag.noise_floor
-    return structured(p, data.coulomb, diag.replay_rms, diag.final_rms / floor if floor > 0 else None)
+    return _left_structured(diag, data)
 
 
 def _img(path: Path) -> str:
