@@ -100,8 +100,7 @@ def gear_scorer(ctx: Context, refit_lugre: bool = False, refit_inertia: bool = F
 
 def spring_beyond(ctx: Context, freqs) -> tuple[float, float, float, tuple]:
     """The best gear spring among ``freqs`` with a share of the friction beyond it
-    (``KAPPA_GRID``), scored off LuGre's and the acceleration's directions: (its share of what
-    those leave, its size beside LuGre alone in rms, the gear).  An inertia error is taken off
+    (``KAPPA_GRID``), scored off LuGre's and the acceleration's directions.  An inertia error is taken off
     because friction beyond a stiff spring mimics one under a sine (viscous friction sigma2
     beyond a spring k acts as an inertia of -sigma2^2 / k).  Of what a credited inertia error
     or gravity leaves, so scored: true ones 0.0-0.04 (tuning seeds 1301-1310, 1305-1307,
