@@ -100,9 +100,9 @@ def gear_scorer(ctx: Context, refit_lugre: bool = False, refit_inertia: bool = F
 
 def spring_beyond(ctx: Context, freqs) -> tuple[float, float, float, tuple]:
     """The best gear spring among ``freqs`` with a share of the friction beyond it
-    (``KAPPA_GRID``), scored off LuGre's and the acceleration's directions.  An inertia error is taken off
-    because friction beyond a stiff spring mimics one under a sine (viscous friction sigma2
-    beyond a spring k acts as an inertia of -sigma2^2 / k).  Of what a credited inertia error
+    (``KAPPA_GRID``), scored off LuGre's and the acceleration's directions.  An inertia error
+    is taken off because friction beyond a stiff spring mimics one under a sine (viscous
+    friction sigma2 beyond a spring k acts as an inertia of -sigma2^2 / k).  Of what a credited inertia error
     or gravity leaves, so scored: true ones 0.0-0.04 (tuning seeds 1301-1310, 1305-1307,
     1718-1721), springs with 30-40 % of the friction beyond them 0.42-0.65 (independent
     simulator, 1958-1993).  At the wider band around LuGre alone: such springs 0.45-0.97, a
