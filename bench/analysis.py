@@ -15,7 +15,7 @@ import numpy as np
 from bench import plots
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
 from bench.effects.gear import friction_beyond_gear, spring_beyond
-from bench.effects.joint_flexibility import slowest
+from bench.effects.joint_flexibility import searched_frequencies
 from bench.effects.periodic import PositionSeries
 from bench.errors import BenchError, InputError
 from bench.fitting import LUGRE_KEYS
@@ -249,12 +249,8 @@ def _inertia_like_spring(diag: Diagnosis) -> bool:
     if not set(SPRING_MIMICS) & set(diag.model.names()):
         return False
     ctx = diag.contexts[-1]
-    c = ctx.data.c
-    lo, hi = slowest(c), c.cutoff
-    if hi <= lo:
-        return False
-    share, _, _, _ = spring_beyond(ctx, np.geomspace(lo, hi, 14))
-    return share >= MIN_SHARE
+    freqs = searched_frequencies(ctx.data.c)
+    return len(freqs) > 0 and spring_beyond(ctx, freqs)[0] >= MIN_SHARE
 
 
 def _left_structured(diag: Diagnosis, data) -> bool:

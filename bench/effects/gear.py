@@ -115,7 +115,8 @@ def spring_beyond(ctx: Context, freqs) -> tuple[float, float, float, tuple]:
     share, g = max((off((0.0, f, z, k / ctx.inertia)), (0.0, f, z, k / ctx.inertia))
                    for f in freqs for z in SPRING_DAMPINGS for k in KAPPA_GRID)
     beside = gear_scorer(ctx, refit_lugre=True)
-    return share, beside(g), math.sqrt(beside(g)) * beside.residual_rms, g
+    kept = beside(g)
+    return share, kept, math.sqrt(kept) * beside.residual_rms, g
 
 
 def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int = 2,

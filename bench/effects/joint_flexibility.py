@@ -46,6 +46,14 @@ def slowest(c) -> float:
     return max(2.0 * c.frequency, 1.0)
 
 
+def searched_frequencies(c) -> np.ndarray:
+    """The spring frequencies the search scores: from ``slowest`` up to the cutoff, not
+    beyond: there the fit shapes the filter's own edge (on tuning seed 1490, a 3 ms logger's
+    17 Hz cutoff, an 18.7 Hz "resonance" of 4 % of the inertia).  Empty when none fit."""
+    lo, hi = slowest(c), c.cutoff
+    return np.geomspace(lo, hi, 14) if hi > lo else np.empty(0)
+
+
 class JointFlexibility(GearEffect):
     name = "joint_flexibility"
     signals = ("travel_since_reversal",)
@@ -55,13 +63,10 @@ class JointFlexibility(GearEffect):
     kappa_key = "flex_kappa"
 
     def variants(self, ctx: Context) -> list[dict]:
-        c = ctx.data.c
-        # up to the cutoff, not beyond: there the fit shapes the filter's own edge (on tuning
-        # seed 1490, a 3 ms logger's 17 Hz cutoff, an 18.7 Hz "resonance" of 4 % of the inertia)
-        lo, hi = slowest(c), c.cutoff
-        if hi <= lo:
+        freqs = searched_frequencies(ctx.data.c)
+        if not len(freqs):
             return []
-        grid = [(0.0, f, DEFAULT_DAMPING) for f in np.geomspace(lo, hi, 14)]
+        grid = [(0.0, f, DEFAULT_DAMPING) for f in freqs]
         # seen from the load, the motor's slip through the spring is a term of its own
         slip = {"flex_slip": 0.0} if ctx.data.load_encoder else {}
         return [{"flex_frequency": f, "flex_damping": z, "flex_load": 0.0, "flex_kappa": k, **slip}
