@@ -13,6 +13,9 @@ joint's own friction and excitation:
   reference speed (the sine test's top speed), peaking at 3-8 % of the friction at that speed.
 - ``position_spring``: a cable carrier or a spring pulls the joint towards one end of its
   travel, k (q - q_0), 4-10 % of Fc at the ends (not periodic, not gravity's sine).
+- ``load_dependent_friction``: a gear's tooth friction grows with the torque it carries (as in
+  harmonic drives), an extra mu |tau| opposing the motion, 8-20 % of Fc at the sine's peak
+  torque.  It is a friction level that follows the torque, not the speed or the position.
 
 The joint is stepped one control period at a time (``VirtualJoint``), the extra torque held
 over the period from its state at the start: these terms change slowly against 1 ms.
@@ -27,7 +30,8 @@ from bench.records import Record
 from virtual_drives.joint import JointSpec, VirtualJoint, quantise, sine_torque
 from virtual_drives.scenarios import travel_of
 
-KINDS = ("saturating_torque_constant", "nonlinear_viscous", "position_spring")
+KINDS = ("saturating_torque_constant", "nonlinear_viscous", "position_spring",
+         "load_dependent_friction")
 
 
 def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0,
@@ -71,6 +75,13 @@ def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0
         q0 = mid + rng.uniform(-0.3, 0.3) * travel
         text = f"spring towards {q0:.4g}, {k:.4g} per unit of travel"
         extra = lambda q, v, tau: -k * (q - q0)  # noqa: E731
+    elif kind == "load_dependent_friction":
+        mu = rng.uniform(0.08, 0.20) * Fc / A
+        text = f"friction rising with the carried torque, {mu * A / Fc:.2f} Fc at the peak torque"
+        # sgn v smoothed over a speed at which the held term stays stable per period (its slope
+        # mu A / v_c against the inertia) and far below the sliding speeds (1 % of v_ref)
+        v_c = max(0.01 * v_ref, 2.0 * dt * mu * A / spec.inertia)
+        extra = lambda q, v, tau: -mu * abs(tau) * math.tanh(v / v_c)  # noqa: E731
     else:
         raise ValueError(f"unknown kind {kind!r}; known: {', '.join(KINDS)}")
     q = np.empty(n)

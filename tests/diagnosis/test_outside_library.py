@@ -71,3 +71,23 @@ def test_weak_nonlinear_viscous_friction_is_flagged_by_the_map_it_bends():
         flagged += doc["unexplained"]["rising_map"] and doc["unexplained"]["structured"]
     assert not credited, credited
     assert flagged >= 2, flagged
+
+
+
+def test_friction_rising_with_the_carried_torque_is_never_credited_to_a_library_effect():
+    """A gear's friction that grows with the torque it carries (harmonic drives) must not be
+    told as a library effect.  Where the torque and the motion share a sign through most of the
+    sine test, mu |tau| sgn v is mu tau, a friction level (1 + mu) higher, and LuGre absorbs it
+    ("nothing left"): not asserted here, measured in the README's known limits (a bar of <= 2
+    absorbed in 10, set on tuning seeds, failed on these seeds with 3, all on j3).  Tuning seeds
+    1101-1104 on these joints: nothing credited once a gear spring must carry 5 % of the inertia
+    (before: a 3.3 Hz line with 1.2 % of it on the linear stage)."""
+    credited = []
+    for i in range(10):
+        joint = ("linear", "j2", "j3")[i % 3]
+        rec, text = outside_record(PRESETS[joint], "load_dependent_friction", 5990 + i)
+        doc = analyze_record(rec).report()
+        names = [d["effect"] for d in doc["diagnosis"] if d["significant"]] + doc["final"]["effects"]
+        if names:
+            credited.append((joint, 5990 + i, text, names, doc["unexplained"]["evidence"][:160]))
+    assert not credited, credited
