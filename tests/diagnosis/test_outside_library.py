@@ -73,7 +73,6 @@ def test_weak_nonlinear_viscous_friction_is_flagged_by_the_map_it_bends():
     assert flagged >= 2, flagged
 
 
-
 def test_friction_rising_with_the_carried_torque_is_never_credited_to_a_library_effect():
     """A gear's friction that grows with the torque it carries (harmonic drives) must not be
     told as a library effect.  Where the torque and the motion share a sign through most of the
