@@ -112,6 +112,7 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                                                   description="M_jj [SI]; 0: the torque column is the friction"),
                   columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
+                  time_unit: Optional[str] = Query(None, pattern="^(s|ms|us|ns)$", description="numeric time's unit (default s)"),
                   position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),
                   torque_unit: Optional[str] = Query(None, max_length=20, description="N*m, mN*m, kN*m, N*mm; N, mN, kN"),
                   torque_hold: Optional[str] = Query(None, pattern="^(zoh|sample|auto)$"),
@@ -122,7 +123,8 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
     from bench.readers import parse_columns
     parse_columns(columns)   # a bad mapping is told before the upload is queued
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,
-               "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold}
+               "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold,
+               "time_unit": time_unit}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
     pool = _pool(svc)
     try:

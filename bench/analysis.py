@@ -14,7 +14,7 @@ import numpy as np
 
 from bench import plots
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
-from bench.effects.gear import friction_beyond_gear, spring_beyond
+from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
 from bench.effects.joint_flexibility import searched_frequencies
 from bench.effects.periodic import PositionSeries
 from bench.errors import BenchError, InputError
@@ -170,6 +170,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             diag = _diagnose(ident, rec, add)
         if diag is not None and not add and cutoff is None and not names_a_gear(diag):
             ident, diag = _wider_if_resonant(ident, diag, rec, name)
+        if diag is not None:
+            diag.beyond = None                 # served its purpose; its fits hold memory
         _check_finite(ident, diag)
     return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
 
@@ -221,8 +223,11 @@ def _diagnose(ident: Identification, rec: Record, add):
         return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
 
     diag = run()
-    if add or not (_gear_hysteresis_left(diag, data) or _position_series_credited(diag)
-                   or _inertia_like_spring(diag)):
+    # already with friction beyond the gear (the wide probe's retry), a second pass would
+    # repeat the first exactly
+    if add or friction_beyond_on() or not (
+            _gear_hysteresis_left(diag, data) or _position_series_credited(diag)
+            or _inertia_like_spring(diag)):
         return diag
     # a structure left that follows the travel since the last reversal, as a gear's does, one
     # taken up by a position series, or an inertia error (or gravity) beside a spring's
@@ -230,8 +235,10 @@ def _diagnose(ident: Identification, rec: Record, add):
     # that only if it leaves nothing and predicts the held-out motion better
     with friction_beyond_gear():
         second = run()
-    ok = not _left_structured(second, data)
-    return second if ok and second.final_rms < diag.final_rms else diag
+    if not _left_structured(second, data) and second.final_rms < diag.final_rms:
+        return second
+    diag.beyond = second
+    return diag
 
 
 # What friction beyond a gear spring passes for under a sine: an inertia error, and gravity
@@ -275,8 +282,11 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
             # 14 Hz spring with 40 % of it beyond on j4 was fitted at 2.4 Hz, then dropped,
             # independent simulator, tuning seed 1972).  Not when nothing is left: dearer.
             if probe[1] and _left_structured(wide_diag, wide.data):
-                with friction_beyond_gear():
-                    wide_diag = _diagnose(wide, rec, None)
+                if wide_diag.beyond is not None:     # that pass ran already: the same
+                    wide_diag = wide_diag.beyond
+                else:
+                    with friction_beyond_gear():
+                        wide_diag = _diagnose(wide, rec, None)
     except (BenchError, ValueError, ArithmeticError):    # LinAlgError is a ValueError
         return ident, diag
     if wide_diag is None or "joint_flexibility" not in wide_diag.model.names() \

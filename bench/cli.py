@@ -161,6 +161,7 @@ def analyze(
     columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
     inertia: Optional[float] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction"),
     joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
+    time_unit: Optional[str] = typer.Option(None, help="s, ms, us or ns (numeric time; default s)"),
     position_unit: Optional[str] = typer.Option(None, help="rad, deg, rev (revolute); m, mm, um (prismatic)"),
     torque_unit: Optional[str] = typer.Option(None, help="N*m, mN*m, kN*m, N*mm (revolute); N, mN, kN (prismatic)"),
     torque_hold: Optional[str] = typer.Option(None, help="zoh (commands held), sample (sampled) or auto"),
@@ -179,7 +180,8 @@ def analyze(
         if inertia is not None and not inertia >= 0:
             raise BenchError(f"--inertia must be >= 0 (0: the torque column is the friction), got {inertia:g}")
         rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
-                          torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold)
+                          torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold,
+                          time_unit=time_unit)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
         result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))

@@ -132,6 +132,9 @@ class Diagnosis:
     replay_rms: float = 0.0        # what a perfect model leaves on this record (bench.perfect_model)
     noise_floor: float = 0.0       # the record's measurement-noise floor (bench.unexplained)
     start: Model | None = None     # the baseline (LuGre alone)
+    # the same diagnosis with friction beyond the gear, when that pass ran and was not kept
+    # (``bench.analysis._diagnose``): the wide probe asks for it again rather than rerun it
+    beyond: Diagnosis | None = None
 
     def entries(self) -> list[dict]:
         """Ranked diagnosis list of the JSON contract: the effects of the final model in the

@@ -7,8 +7,10 @@ torques to SI, puts uneven timestamps on a uniform grid (``bench.resample``) and
 What was done is kept in ``Record.reading`` (``format``, ``columns``, ``units``,
 ``resampling``) for the report.  Every problem is an ``InputError`` of one line.
 
-Units (``position_unit``, ``torque_unit``; the inertia is always SI: kg·m² or kg):
-revolute rad, deg, rev and N*m, mN*m, kN*m, N*mm; prismatic m, mm, um and N, mN, kN.
+Units (``time_unit``, ``position_unit``, ``torque_unit``; the inertia is always SI: kg·m² or
+kg): time s, ms, us, ns (loggers count milliseconds or nanoseconds as often as seconds; clock
+times such as ISO 8601 strings carry their own); revolute rad, deg, rev and N*m, mN*m, kN*m,
+N*mm; prismatic m, mm, um and N, mN, kN.
 """
 from __future__ import annotations
 
@@ -29,6 +31,8 @@ POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * 
 TORQUE_UNITS = {"revolute": {"N*m": 1.0, "mN*m": 1e-3, "kN*m": 1e3, "N*mm": 1e-3},
                 "prismatic": {"N": 1.0, "mN": 1e-3, "kN": 1e3}}
 SI = {"revolute": ("rad", "N*m"), "prismatic": ("m", "N")}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+META_UNITS = ("joint_type", "time_unit", "position_unit", "torque_unit", "torque_hold")
 
 
 def parse_columns(spec: str | None) -> dict | None:
@@ -55,45 +59,57 @@ def parse_columns(spec: str | None) -> dict | None:
 def read_record(source, name: str | None = None, columns: str | dict | None = None,
                 joint_type: str | None = None, position_unit: str | None = None,
                 torque_unit: str | None = None, inertia: float | None = None,
-                torque_hold: str | None = None) -> Record:
+                torque_hold: str | None = None, time_unit: str | None = None) -> Record:
     """Read, map, convert, resample and validate a record.  ``source``: a path, bytes or a
     text stream."""
     raw, name = _load(source, name)
+    opts = dict(joint_type=joint_type, position_unit=position_unit, torque_unit=torque_unit,
+                inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
     fmt = _format(raw, name)
     mapping = parse_columns(columns) if isinstance(columns, str) or columns is None else dict(columns)
     if fmt == "parquet":
         table, meta = _parquet(raw, name)
         trace = _trace_record(table, mapping, name)
         if trace is not None:
-            return _finish(trace, name, fmt, joint_type, position_unit, torque_unit, inertia, torque_hold)
+            return _finish(trace, name, fmt, opts)
     elif fmt == "mat":
         table, meta = _mat(raw, name)
     else:
         table, meta, fmt = _text(raw, name)
     mapping = mapping or {r: r for r in ROLES if r in _names(table) or r in REQUIRED}
     data = {}
+    clock, ticks = False, None
     for role, col in mapping.items():
         key = _column_key(table, col, role, name, explicit=columns is not None)
         values = table.column(key) if hasattr(table, "column_names") else table[key]
         data[role] = _numeric(values, key, name, time=role == "t")
+        if role == "t" and isinstance(data[role], _ClockSeconds):
+            clock, data[role] = True, np.asarray(data[role])
+        elif role == "t":   # integer ticks (ns since the epoch) lose digits as floats: keep them
+            ints = values.to_numpy() if hasattr(values, "to_numpy") else np.asarray(values)
+            ticks = ints.astype(np.int64) if ints.dtype.kind in "iu" else None
     rec = Record(t=data["t"], tau=data["tau"], q=data["q"], qd=data.get("qd"), meta=meta)
     rec.reading = {"format": fmt, "columns": {r: str(c) for r, c in mapping.items()}}
-    return _finish(rec, name, fmt, joint_type, position_unit, torque_unit, inertia, torque_hold)
+    if ticks is not None:
+        rec.reading["raw_ticks"] = ticks
+    if clock:
+        rec.reading["clock_time"] = True
+    return _finish(rec, name, fmt, opts)
 
 
-def _finish(rec: Record, name, fmt, joint_type, position_unit, torque_unit, inertia, torque_hold) -> Record:
-    for key, value in (("joint_type", joint_type), ("position_unit", position_unit),
-                       ("torque_unit", torque_unit), ("inertia", inertia), ("torque_hold", torque_hold)):
+def _finish(rec: Record, name, fmt, opts: dict) -> Record:
+    for key, value in opts.items():
         if value is not None:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
-    rec.reading["raw_t"] = np.array(rec.t, dtype=float)   # for --residuals at the record's own times
     for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
         arr = getattr(rec, col)
         if not np.all(np.isfinite(arr)):
             i = int(np.argmin(np.isfinite(arr)))
             raise InputError(f"{name}: column '{col}' has a non-finite value ({arr[i]}) at data row {i + 1}")
     _to_si(rec, name)
+    # for --residuals at the record's own times (converted back to the file's unit there)
+    rec.reading["raw_t"] = np.array(rec.t, dtype=float)
     rec = regularise(rec, name)
     validate(rec, name)
     return rec
@@ -104,6 +120,16 @@ def _to_si(rec: Record, name: str) -> None:
     if jt not in JOINT_TYPES:
         raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
     conv = {}
+    unit = rec.meta.get("time_unit")
+    if unit is not None:
+        unit = str(unit).strip().replace("µs", "us")
+        if unit not in TIME_UNITS:
+            raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)}")
+        rec.meta["time_unit"] = "s"
+        # clock times (ISO 8601, Parquet timestamps) are read in seconds whatever the option
+        if TIME_UNITS[unit] != 1.0 and not rec.reading.get("clock_time"):
+            conv["time"] = {"from": unit, "to": "s", "factor": TIME_UNITS[unit]}
+            rec.t = np.asarray(rec.t, dtype=float) * TIME_UNITS[unit]
     for key, table, role in (("position_unit", POSITION_UNITS, "position"), ("torque_unit", TORQUE_UNITS, "torque")):
         unit = rec.meta.get(key)
         if unit is None:
@@ -235,7 +261,7 @@ def _parquet(raw: bytes, name: str):
     meta = {}
     for k, v in (table.schema.metadata or {}).items():   # key/value metadata, if any was written
         key = k.decode(errors="replace")
-        if key in ("inertia", "joint_type", "position_unit", "torque_unit", "torque_hold"):
+        if key == "inertia" or key in META_UNITS:
             meta[key] = _parse_meta_value(v.decode(errors="replace"))
     return table, meta
 
@@ -286,7 +312,7 @@ def _mat(raw: bytes, name: str):
             return
         arr = np.asarray(value)
         key = prefix.rsplit(".", 1)[-1]
-        if arr.dtype.kind in "US" and key in ("joint_type", "position_unit", "torque_unit", "torque_hold"):
+        if arr.dtype.kind in "US" and key in META_UNITS:
             meta[key] = str(arr)
         elif arr.ndim == 0 and arr.dtype.kind in "fiu" and key == "inertia":
             meta[key] = float(arr)
@@ -331,7 +357,7 @@ def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
         import pyarrow as pa
         if pa.types.is_timestamp(values.type):
             ns = values.cast(pa.timestamp("ns")).to_numpy().astype("datetime64[ns]").astype(np.int64)
-            return (ns - ns[0]) * 1e-9
+            return _ClockSeconds((ns - ns[0]) * 1e-9)
         try:
             values = values.to_numpy(zero_copy_only=False)
         except pa.ArrowException:
@@ -346,7 +372,7 @@ def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
     if time:   # clock times, as many loggers write them: seconds from the first
         try:
             ts = np.array(arr, dtype="datetime64[ns]").astype(np.int64)
-            return (ts - ts[0]) * 1e-9
+            return _ClockSeconds((ts - ts[0]) * 1e-9)
         except (ValueError, TypeError):
             pass
     for r, cell in enumerate(arr, start=1):
@@ -355,6 +381,13 @@ def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
         except (ValueError, TypeError):
             raise InputError(f"{name}: column '{col}' is not numeric at data row {r}: {cell!r}") from None
     raise InputError(f"{name}: column '{col}' is not numeric")
+
+
+class _ClockSeconds(np.ndarray):
+    """Seconds read from clock times: a time unit does not apply to them."""
+
+    def __new__(cls, a):
+        return np.asarray(a, dtype=float).view(cls)
 
 
 def _is_number(s: str) -> bool:

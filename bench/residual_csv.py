@@ -60,8 +60,16 @@ def write_residuals(analysis, path: str | Path) -> Path:
     rec = analysis.record
     raw_t = rec.reading.get("raw_t", rec.t)
     table = residual_table(analysis, np.asarray(raw_t, dtype=float))
-    data = np.column_stack([table[k] for k in COLUMNS])
+    # t as the file wrote it (its own unit, ``time_unit``), so the rows join on the file's values
+    ticks = rec.reading.get("raw_ticks")
+    if ticks is not None and len(ticks) == len(table["t"]):
+        t_col, t_fmt = ticks, "%d"
+    else:
+        t_col = table["t"] / rec.reading.get("units", {}).get("time", {}).get("factor", 1.0)
+        t_fmt = "%.16g"      # 16 digits: epoch seconds with microseconds survive
     path = Path(path)
-    np.savetxt(path, data, delimiter=",", header=",".join(COLUMNS), comments="",
-               fmt=["%.15g", "%.9g", "%.9g", "%.9g", "%d"])
+    with open(path, "w") as fh:
+        fh.write(",".join(COLUMNS) + "\n")
+        rows = zip(t_col, table["measured"], table["baseline"], table["final"], table["held_out"])
+        fh.writelines(f"{t_fmt % t},{m:.9g},{b:.9g},{f:.9g},{h:d}\n" for t, m, b, f, h in rows)
     return path

@@ -50,6 +50,11 @@ def friction_beyond_gear():
         _BEYOND.reset(token)
 
 
+def friction_beyond_on() -> bool:
+    """Is the second pass (``friction_beyond_gear``) on?"""
+    return _BEYOND.get()
+
+
 def lugre_directions(ctx: Context, lugre: dict, inertia: bool = False) -> np.ndarray:
     """An orthonormal basis, at the scored samples, of how the filtered LuGre trace moves with
     each LuGre parameter (and, with ``inertia``, of the acceleration): a term and a residual

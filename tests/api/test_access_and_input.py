@@ -161,9 +161,15 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
     r = operator.post("/analyze", content=buf.getvalue(), params=params,
                       headers={"content-type": "application/octet-stream"}, timeout=180)
     assert r.status_code == 200 and r.json()["parameters"] == doc["parameters"], r.text
+    buf = io.BytesIO()      # a logger counting milliseconds: the same record
+    pq.write_table(pa.table(dict(cols, time=np.round(rec.t * 1e3, 6))), buf)
+    r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, time_unit="ms"),
+                      headers={"content-type": "application/vnd.apache.parquet"}, timeout=180)
+    assert r.status_code == 200 and r.json()["units"]["conversions"]["time"]["from"] == "ms", r.text
+    assert r.json()["parameters"] == pytest.approx(doc["parameters"], rel=1e-6)
     for bad, expect in (({"columns": "t=time,tau=nope,q=angle_deg"}, "no column 'nope'"),
                         ({"columns": "t=time,tau=motor_torque_mNm"}, "missing: q"),
-                        ({"inertia": -1}, "inertia")):
+                        ({"inertia": -1}, "inertia"), ({"time_unit": "min"}, "time_unit")):
         r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, **bad),
                           headers={"content-type": "application/octet-stream"}, timeout=60)
         assert r.status_code == 422 and expect in r.json()["detail"] and "\n" not in r.json()["detail"], r.text

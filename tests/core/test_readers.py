@@ -189,7 +189,43 @@ def test_logger_file_end_to_end_with_residuals(tmp_path):
     assert err == pytest.approx(doc["final"]["rms_error"], rel=0.5)   # the same comparison
 
 
+def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
+    """Integer nanoseconds since the epoch (as ROS and many PC loggers write them): refused with
+    a hint without the time unit, analysed with --time-unit ns, and the residuals' t column is
+    the file's own integers, digit for digit (a float keeps only ~16 of their 19)."""
+    spec, t1k, F, q_deg, _ = friction_log("j2", 5330, duration=14.0)
+    t = logged(Record(t=t1k, tau=F, q=q_deg), 5331, drop=0.002)
+    ticks = 1_764_190_000_000_000_000 + np.round(t * 1e9).astype(np.int64)
+    path = tmp_path / "ros.csv"
+    path.write_text("stamp_ns,friction,angle\n" + "\n".join(
+        f"{a},{b:.6g},{c:.9g}" for a, b, c in zip(ticks, np.interp(t, t1k, F), np.interp(t, t1k, q_deg))))
+    args = ("analyze", path, "--columns", "t=stamp_ns,tau=friction,q=angle", "--inertia", "0",
+            "--position-unit", "deg")
+    r = run(*args)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert r.returncode == 2 and len(lines) == 1 and "is t in ms, us or ns?" in lines[0], r.stderr
+    out = tmp_path / "res.csv"
+    r = run(*args, "--time-unit", "ns", "--residuals", out, "--json", tmp_path / "o.json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "o.json").read_text())
+    assert doc["units"]["conversions"]["time"] == {"from": "ns", "to": "s", "factor": 1e-9}
+    assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
+    written = [ln.split(",")[0] for ln in out.read_text().splitlines()[1:]]
+    assert written == [str(k) for k in ticks]
+
+
+def test_milliseconds_from_a_metadata_line_are_seconds_inside():
+    spec = PRESETS["j4"]
+    rec = simulate_record(spec, *spec.excitation, duration=3.0, seed=5332).record
+    text = "# time_unit: ms\n# inertia: %r\nt,tau,q\n" % spec.inertia + "".join(
+        f"{1e3 * a:.3f},{b:.17g},{c:.17g}\n" for a, b, c in zip(rec.t, rec.tau, rec.q))
+    got = read_record(text.encode(), name="ms.csv")
+    np.testing.assert_allclose(got.t, rec.t, atol=1e-9)
+    assert got.reading["units"]["time"]["from"] == "ms" and got.dt == pytest.approx(1e-3)
+
+
 @pytest.mark.parametrize("content, options, expect", [
+    ("t,tau,q\n0,1,1\n", {"time_unit": "min"}, "time_unit 'min' is not one of s, ms, us, ns"),
     ("a,b,c\n0,1,2\n", {"columns": "t=a,tau=b,q=zz"}, "no column 'zz' (for q); the file's columns: a, b, c"),
     ("a,b,c\n0,1,2\n", {"columns": "t=a,tau=b"}, "--columns must map t, tau and q (missing: q)"),
     ("t,tau,q\n" + "".join(f"{(i if i != 30 else 12) / 1000},{i},{i}\n" for i in range(60)), {"inertia": 1},
