@@ -7,7 +7,7 @@ import base64
 import html
 import math
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +17,7 @@ from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagn
 from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
 from bench.effects.joint_flexibility import searched_frequencies
 from bench.effects.periodic import PositionSeries
-from bench.errors import BenchError, InputError
+from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
 from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
 from bench.perfect_model import replay
@@ -164,7 +164,18 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
     if cutoff is not None:
         in_range(cutoff, "cutoff", 0.0, 0.5 / max(rec.dt, 1e-12), lo_open=True)
     with fit_errors():
-        ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
+        try:
+            ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
+        except NotIdentifiable as refused:
+            # a torque counting positive against the position reads as friction feeding energy
+            # in; the same record with the torque reversed slides (the check is strict: a
+            # clear Coulomb line in both directions), so it is analysed that way, and said
+            try:
+                rec = _torque_reversed(rec)
+                ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
+            except NotIdentifiable:
+                raise refused from None
+            ident.warnings.insert(0, REVERSED_WARNING)
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
@@ -174,6 +185,21 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             diag.beyond = None                 # served its purpose; its fits hold memory
         _check_finite(ident, diag)
     return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
+
+
+REVERSED_WARNING = ("the torque column counts positive against the position: at top speed the "
+                    "friction opposed the motion in both directions, which friction cannot do; "
+                    "the torque's sign was reversed (the parameters and residuals are for "
+                    "the torque in the position's sense)")
+
+
+def _torque_reversed(rec: Record) -> Record:
+    """The record with its torque's sign reversed: a drive or sensor that counts positive the
+    other way than the encoder (CiA 402's polarity object, a mirrored joint).  Friction's
+    parameters do not depend on which one is reversed; the torque keeps the position's sense."""
+    out = replace(rec, tau=-np.asarray(rec.tau), meta=dict(rec.meta), reading=dict(rec.reading))
+    out.reading["torque_reversed"] = True
+    return out
 
 
 @contextmanager

@@ -214,6 +214,24 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     assert written == [str(k) for k in ticks]
 
 
+@pytest.mark.parametrize("joint, condition, seed", [("j3", "robot joint log", 5333),
+                                                   ("linear", "PD closed-loop tracking", 5334)])
+def test_a_torque_counting_positive_against_the_position_is_reversed_and_said(joint, condition, seed):
+    """A drive whose torque counts positive the other way than its encoder (CiA 402's polarity,
+    a mirrored joint): friction would feed energy in.  Analysed with the torque reversed, the
+    same parameters as the record as it should have been, and a warning saying so."""
+    from dataclasses import replace
+
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(PRESETS[joint], condition, seed)
+    right = analyze_record(rec, diagnose_effects=False).report()
+    mirrored = replace(rec, tau=-rec.tau, meta=dict(rec.meta), reading=dict(rec.reading))
+    doc = analyze_record(mirrored, diagnose_effects=False).report()
+    assert doc["parameters"] == pytest.approx(right["parameters"], rel=1e-9)
+    assert "torque's sign was reversed" in doc["warnings"][0]
+    assert not any("reversed" in w for w in right["warnings"])
+
+
 def test_milliseconds_from_a_metadata_line_are_seconds_inside():
     spec = PRESETS["j4"]
     rec = simulate_record(spec, *spec.excitation, duration=3.0, seed=5332).record
