@@ -24,6 +24,7 @@ import numpy as np
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
+from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
 POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi},
@@ -102,17 +103,35 @@ def _finish(rec: Record, name, fmt, opts: dict) -> Record:
         if value is not None:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
-    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
-        arr = getattr(rec, col)
-        if not np.all(np.isfinite(arr)):
-            i = int(np.argmin(np.isfinite(arr)))
-            raise InputError(f"{name}: column '{col}' has a non-finite value ({arr[i]}) at data row {i + 1}")
+    _drop_empty_rows(rec, name)
     _to_si(rec, name)
+    # the columns' magnitudes before resampling (1e300 overflows an interpolant); the inertia
+    # is validate()'s, below
+    record_magnitudes(rec, None, name, with_inertia=False)
     # for --residuals at the record's own times (converted back to the file's unit there)
     rec.reading["raw_t"] = np.array(rec.t, dtype=float)
     rec = regularise(rec, name)
     validate(rec, name)
     return rec
+
+
+def _drop_empty_rows(rec: Record, name: str) -> None:
+    """Rows with an empty, NaN or infinite cell in a mapped column are a logger's dropped
+    samples: taken out (counted in the report) and handled as uneven time and gaps are."""
+    cols = ("t", "tau", "q") + (("qd",) if rec.qd is not None else ())
+    ok = np.ones(len(rec.t), dtype=bool)
+    for col in cols:
+        ok &= np.isfinite(getattr(rec, col))
+    if ok.all():
+        return
+    if not ok.any():
+        raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}")
+    for col in cols:
+        setattr(rec, col, getattr(rec, col)[ok])
+    ticks = rec.reading.get("raw_ticks")
+    if ticks is not None:
+        rec.reading["raw_ticks"] = ticks[ok]
+    rec.reading["empty_rows"] = {"dropped": int((~ok).sum()), "first": int(np.argmin(ok)) + 1}
 
 
 def _to_si(rec: Record, name: str) -> None:

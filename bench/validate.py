@@ -95,7 +95,8 @@ def finite_arrays(what: str, **arrays) -> None:
 RECORD_BOUNDS = {"step": (1e-7, 0.2), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "inertia": (1e-9, 1e12)}
 
 
-def record_magnitudes(rec, inertia: float | None = None, name: str = "record") -> None:
+def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
+                      with_inertia: bool = True) -> None:
     """Finite columns within ``RECORD_BOUNDS``: the time step, the torque's largest magnitude,
     the position's range (the joint moved by more than 1e-9) and its largest magnitude, and
     the inertia (0 stands for a record whose torque is the friction already)."""
@@ -116,11 +117,13 @@ def record_magnitudes(rec, inertia: float | None = None, name: str = "record") -
         raise InputError(f"{name}: torque peaks at {peak:.3g}, outside {lo:g}..{hi:g} N·m or N (unit mistake?)")
     lo, hi = RECORD_BOUNDS["q"]
     travel, far = float(np.ptp(rec.q)), float(np.max(np.abs(rec.q)))
+    if travel == 0:
+        raise InputError(f"{name}: position is constant: the joint never moved")
     if travel < lo or far > hi:
         raise InputError(f"{name}: position spans {travel:.3g} (largest |q| {far:.3g}); it must move by at least "
                          f"{lo:g} and stay within {hi:g} rad or m (unit mistake?)")
     m = inertia if inertia is not None else rec.meta.get("inertia")
-    if m is not None:
+    if m is not None and with_inertia:
         lo, hi = RECORD_BOUNDS["inertia"]
         try:
             mv = float(m)

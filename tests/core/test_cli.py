@@ -62,7 +62,7 @@ HEADER = "# inertia: 1.0\nt,tau,q\n"
 @pytest.mark.parametrize("case,content,expect", [
     ("missing column", "# inertia: 1\nt,tau\n0,1\n0.001,2\n", "missing column 'q'"),
     ("non-numeric", HEADER + "0,1,0\n0.001,abc,0\n" * 6, "not numeric"),
-    ("nan", HEADER + "".join(f"{i/1000},1,{'nan' if i == 5 else i}\n" for i in range(20)), "non-finite"),
+    ("nan", HEADER + "".join(f"{i/1000},1,nan\n" for i in range(20)), "no row holds a number in every one of t, tau, q"),
     ("time not increasing", HEADER + "".join(f"{(i if i != 7 else 3)/1000},{i},{i}\n" for i in range(20)), "not increasing"),
     # uneven time is resampled now; split at gaps into pieces too short to filter, it is refused
     ("gaps", HEADER + "".join(f"{i / 1000 + 0.05 * (i // 3)},{np.sin(i)},{i}\n" for i in range(60)), "segments too short"),

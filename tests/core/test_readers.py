@@ -232,6 +232,24 @@ def test_a_torque_counting_positive_against_the_position_is_reversed_and_said(jo
     assert not any("reversed" in w for w in right["warnings"])
 
 
+def test_rows_with_empty_or_nan_cells_are_dropped_samples():
+    """A logger that writes an empty cell or "nan" for a sample it lost: the row is dropped,
+    counted, and the rest analysed like any logger's uneven time."""
+    spec, t, F, q_deg, _ = friction_log("j4", 5335, duration=14.0)
+    rng = np.random.default_rng(5336)
+    cells = [[f"{a:.6f}", f"{b:.6g}", f"{c:.9g}"] for a, b, c in zip(t, F, q_deg)]
+    lost = rng.choice(np.arange(100, len(t) - 100), 140, replace=False)
+    for i in lost:
+        cells[i][1 + i % 2] = ("", "nan", "NaN")[i % 3]
+    text = "time;friction;angle\n" + "\n".join(";".join(r) for r in cells)
+    rec = read_record(text.encode(), name="lossy.csv", columns="t=time,tau=friction,q=angle",
+                      inertia=0, position_unit="deg")
+    assert len(rec.t) < len(t) and rec.reading["empty_rows"]["dropped"] == len(lost)
+    doc = analyze_record(rec, diagnose_effects=False).report()
+    assert doc["resampling"]["empty_rows_dropped"] == len(lost) and doc["resampling"]["resampled"]
+    assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
+
+
 def test_milliseconds_from_a_metadata_line_are_seconds_inside():
     spec = PRESETS["j4"]
     rec = simulate_record(spec, *spec.excitation, duration=3.0, seed=5332).record
