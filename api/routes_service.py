@@ -113,6 +113,7 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                   columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   time_unit: Optional[str] = Query(None, pattern="^(s|ms|us|ns)$", description="numeric time's unit (default s)"),
+                  window: Optional[str] = Query(None, max_length=60, description="START:END seconds from the first sample"),
                   position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),
                   torque_unit: Optional[str] = Query(None, max_length=20, description="N*m, mN*m, kN*m, N*mm; N, mN, kN"),
                   torque_hold: Optional[str] = Query(None, pattern="^(zoh|sample|auto)$"),
@@ -121,10 +122,12 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                   svc: Service = Depends(service), _=Depends(operator)):
     name, raw = await _upload(request)
     from bench.readers import parse_columns
-    parse_columns(columns)   # a bad mapping is told before the upload is queued
+    from bench.readers import parse_window
+    parse_columns(columns)   # a bad mapping or window is told before the upload is queued
+    parse_window(window)
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,
                "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold,
-               "time_unit": time_unit}
+               "time_unit": time_unit, "window": window}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
     pool = _pool(svc)
     try:

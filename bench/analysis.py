@@ -108,7 +108,8 @@ class Analysis:
             resampling["segments"] = [dict(s, scored=bool(mask[a:b].any()))
                                       for s, (a, b) in zip(resampling["segments"], c.grid_segments)]
         return {"input": {"format": r.get("format"), "columns": r.get("columns"),
-                          "velocity_from": c.velocity_source},
+                          "velocity_from": c.velocity_source,
+                          **({"window": r["window"]} if "window" in r else {})},
                 "units": {"si": True, "conversions": r.get("units", {})},
                 "resampling": resampling}
 

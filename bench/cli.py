@@ -162,6 +162,7 @@ def analyze(
     inertia: Optional[float] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction"),
     joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
     time_unit: Optional[str] = typer.Option(None, help="s, ms, us or ns (numeric time; default s)"),
+    window: Optional[str] = typer.Option(None, help="START:END seconds from the first sample: the part of a long log to analyse"),
     position_unit: Optional[str] = typer.Option(None, help="rad, deg, rev (revolute); m, mm, um (prismatic)"),
     torque_unit: Optional[str] = typer.Option(None, help="N*m, mN*m, kN*m, N*mm (revolute); N, mN, kN (prismatic)"),
     torque_hold: Optional[str] = typer.Option(None, help="zoh (commands held), sample (sampled) or auto"),
@@ -181,7 +182,7 @@ def analyze(
             raise BenchError(f"--inertia must be >= 0 (0: the torque column is the friction), got {inertia:g}")
         rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
                           torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold,
-                          time_unit=time_unit)
+                          time_unit=time_unit, window=window)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
         result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))

@@ -60,9 +60,12 @@ def parse_columns(spec: str | None) -> dict | None:
 def read_record(source, name: str | None = None, columns: str | dict | None = None,
                 joint_type: str | None = None, position_unit: str | None = None,
                 torque_unit: str | None = None, inertia: float | None = None,
-                torque_hold: str | None = None, time_unit: str | None = None) -> Record:
+                torque_hold: str | None = None, time_unit: str | None = None,
+                window: str | None = None) -> Record:
     """Read, map, convert, resample and validate a record.  ``source``: a path, bytes or a
-    text stream."""
+    text stream.  ``window``: "START:END", seconds from the first sample (either may be
+    left out), the part of a long log to analyse."""
+    span = parse_window(window)
     raw, name = _load(source, name)
     opts = dict(joint_type=joint_type, position_unit=position_unit, torque_unit=torque_unit,
                 inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
@@ -72,7 +75,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         table, meta = _parquet(raw, name)
         trace = _trace_record(table, mapping, name)
         if trace is not None:
-            return _finish(trace, name, fmt, opts)
+            return _finish(trace, name, fmt, opts, span)
     elif fmt == "mat":
         table, meta = _mat(raw, name)
     else:
@@ -95,16 +98,48 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["raw_ticks"] = ticks
     if clock:
         rec.reading["clock_time"] = True
-    return _finish(rec, name, fmt, opts)
+    return _finish(rec, name, fmt, opts, span)
 
 
-def _finish(rec: Record, name, fmt, opts: dict) -> Record:
+def parse_window(spec: str | None) -> tuple[float, float] | None:
+    """"START:END" (seconds from the first sample; either side may be empty) -> (start, end)."""
+    if spec is None or not str(spec).strip():
+        return None
+    a, colon, b = str(spec).partition(":")
+    try:
+        lo = float(a) if a.strip() else 0.0
+        hi = float(b) if b.strip() else math.inf
+    except ValueError:
+        lo = hi = math.nan
+    if not colon or not (0 <= lo < hi) or math.isnan(hi):
+        raise InputError(f"window {spec!r} is not START:END in seconds from the first sample "
+                         f"(0 <= START < END, e.g. 120:300 or 600:)")
+    return lo, hi
+
+
+def _cut(rec: Record, span: tuple[float, float], name: str) -> None:
+    """Keep the samples of ``span`` (seconds from the first sample)."""
+    rel = rec.t - rec.t[0]
+    keep = (rel >= span[0]) & (rel <= span[1])
+    if keep.sum() < 2:
+        raise InputError(f"{name}: the window {span[0]:g}:{span[1]:g} s holds {int(keep.sum())} samples "
+                         f"(the record lasts {rel[-1]:.6g} s)")
+    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
+        setattr(rec, col, getattr(rec, col)[keep])
+    if rec.reading.get("raw_ticks") is not None:
+        rec.reading["raw_ticks"] = rec.reading["raw_ticks"][keep]
+    rec.reading["window"] = {"start": span[0], "end": min(span[1], float(rel[-1])), "samples": int(keep.sum())}
+
+
+def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     for key, value in opts.items():
         if value is not None:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
     _drop_empty_rows(rec, name)
     _to_si(rec, name)
+    if span is not None:
+        _cut(rec, span, name)
     # the columns' magnitudes before resampling (1e300 overflows an interpolant); the inertia
     # is validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)

@@ -92,6 +92,9 @@ def finite_arrays(what: str, **arrays) -> None:
 # the step's upper bound: below 5 samples a second no friction record can show presliding or
 # the Stribeck dip (the paper's 0.25 Hz sine would get 20 samples a cycle), while a logger
 # counting milliseconds, read as seconds, steps by 1-10 "s"
+# the analysis holds ~1.5 kB a sample at its peak (a 30-minute log at ~500 Hz, 886 k samples:
+# 1.33 GB resident, 57 s; 2026-11-26): past this a log is cut, not swapped to death or killed
+MAX_ANALYSED = 4_000_000
 RECORD_BOUNDS = {"step": (1e-7, 0.2), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "inertia": (1e-9, 1e12)}
 
 
@@ -105,6 +108,11 @@ def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
     for col, a in cols.items():
         if a is not None and (len(a) == 0 or not np.all(np.isfinite(a))):
             raise InputError(f"{name}: column '{col}' is empty or holds NaN or infinite values")
+    if len(rec.t) > MAX_ANALYSED:
+        span = float(rec.t[-1] - rec.t[0])
+        raise InputError(f"{name}: {len(rec.t):.3g} samples ({span / 60:.3g} min) would need about "
+                         f"{1.5e-6 * len(rec.t):.0f} GB to analyse (limit {MAX_ANALYSED:.0e} samples); "
+                         f"analyse the part with the excitation: --window START:END (seconds)")
     lo, hi = RECORD_BOUNDS["step"]
     if len(rec.t) > 1:
         step = float(np.median(np.diff(rec.t)))

@@ -169,7 +169,8 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
     assert r.json()["parameters"] == pytest.approx(doc["parameters"], rel=1e-6)
     for bad, expect in (({"columns": "t=time,tau=nope,q=angle_deg"}, "no column 'nope'"),
                         ({"columns": "t=time,tau=motor_torque_mNm"}, "missing: q"),
-                        ({"inertia": -1}, "inertia"), ({"time_unit": "min"}, "time_unit")):
+                        ({"inertia": -1}, "inertia"), ({"time_unit": "min"}, "time_unit"),
+                        ({"window": "9:1"}, "window '9:1' is not START:END")):
         r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, **bad),
                           headers={"content-type": "application/octet-stream"}, timeout=60)
         assert r.status_code == 422 and expect in r.json()["detail"] and "\n" not in r.json()["detail"], r.text

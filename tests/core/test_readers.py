@@ -250,6 +250,31 @@ def test_rows_with_empty_or_nan_cells_are_dropped_samples():
     assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
 
 
+def test_a_window_of_a_long_log_and_a_log_too_long_to_analyse(tmp_path):
+    """--window START:END takes the part of a log with the excitation; a log past the sample
+    limit is refused at once with that hint, before anything is allocated for it."""
+    spec, t, F, q_deg, _ = friction_log("j1", 5337, duration=16.0)
+    path = tmp_path / "long.csv"
+    path.write_text("t,f,q\n" + "\n".join(f"{a + 100:.6f},{b:.6g},{c:.9g}" for a, b, c in zip(t, F, q_deg)))
+    out, js = tmp_path / "res.csv", tmp_path / "o.json"
+    r = run("analyze", path, "--columns", "t=t,tau=f,q=q", "--inertia", "0", "--position-unit", "deg",
+            "--window", "3:15", "--no-diagnosis", "--residuals", out, "--json", js)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(js.read_text())
+    assert doc["input"]["window"] == {"start": 3.0, "end": 15.0, "samples": 12001}
+    assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
+    table = np.genfromtxt(out, delimiter=",", names=True)
+    assert table["t"][0] == pytest.approx(103.0) and table["t"][-1] == pytest.approx(115.0)
+    for bad in ("15:3", "abc", "3"):
+        r = run("analyze", path, "--columns", "t=t,tau=f,q=q", "--inertia", "0", "--window", bad)
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert r.returncode == 2 and len(lines) == 1 and "is not START:END" in lines[0], r.stderr
+    n = 4_000_001
+    huge = Record(t=np.arange(n) * 1e-3, tau=np.sin(np.arange(n) * 1e-3), q=np.zeros(n), meta={"inertia": 0})
+    with pytest.raises(InputError, match=r"would need about 6 GB to analyse .* --window START:END"):
+        analyze_record(huge)
+
+
 def test_milliseconds_from_a_metadata_line_are_seconds_inside():
     spec = PRESETS["j4"]
     rec = simulate_record(spec, *spec.excitation, duration=3.0, seed=5332).record
