@@ -121,8 +121,7 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                   diagnose: bool = Query(True, description="diagnose what the LuGre model misses"),
                   svc: Service = Depends(service), _=Depends(operator)):
     name, raw = await _upload(request)
-    from bench.readers import parse_columns
-    from bench.readers import parse_window
+    from bench.readers import parse_columns, parse_window
     parse_columns(columns)   # a bad mapping or window is told before the upload is queued
     parse_window(window)
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,

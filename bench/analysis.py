@@ -103,7 +103,7 @@ class Analysis:
         c, mask = self.ident.data.c, self.ident.data.mask
         resampling = dict(r.get("resampling", {}))
         if "empty_rows" in r:    # rows with an empty, NaN or infinite cell (bench.readers)
-            resampling["empty_rows_dropped"] = r["empty_rows"]["dropped"]
+            resampling["empty_rows_dropped"] = r["empty_rows"]
         if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
             resampling["segments"] = [dict(s, scored=bool(mask[a:b].any()))
                                       for s, (a, b) in zip(resampling["segments"], c.grid_segments)]

@@ -24,6 +24,7 @@ import numpy as np
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
+from bench.rows import cut, drop_empty_rows, parse_window
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
@@ -101,45 +102,15 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     return _finish(rec, name, fmt, opts, span)
 
 
-def parse_window(spec: str | None) -> tuple[float, float] | None:
-    """"START:END" (seconds from the first sample; either side may be empty) -> (start, end)."""
-    if spec is None or not str(spec).strip():
-        return None
-    a, colon, b = str(spec).partition(":")
-    try:
-        lo = float(a) if a.strip() else 0.0
-        hi = float(b) if b.strip() else math.inf
-    except ValueError:
-        lo = hi = math.nan
-    if not colon or not (0 <= lo < hi) or math.isnan(hi):
-        raise InputError(f"window {spec!r} is not START:END in seconds from the first sample "
-                         f"(0 <= START < END, e.g. 120:300 or 600:)")
-    return lo, hi
-
-
-def _cut(rec: Record, span: tuple[float, float], name: str) -> None:
-    """Keep the samples of ``span`` (seconds from the first sample)."""
-    rel = rec.t - rec.t[0]
-    keep = (rel >= span[0]) & (rel <= span[1])
-    if keep.sum() < 2:
-        raise InputError(f"{name}: the window {span[0]:g}:{span[1]:g} s holds {int(keep.sum())} samples "
-                         f"(the record lasts {rel[-1]:.6g} s)")
-    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
-        setattr(rec, col, getattr(rec, col)[keep])
-    if rec.reading.get("raw_ticks") is not None:
-        rec.reading["raw_ticks"] = rec.reading["raw_ticks"][keep]
-    rec.reading["window"] = {"start": span[0], "end": min(span[1], float(rel[-1])), "samples": int(keep.sum())}
-
-
 def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     for key, value in opts.items():
         if value is not None:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
-    _drop_empty_rows(rec, name)
+    drop_empty_rows(rec, name)
     _to_si(rec, name)
     if span is not None:
-        _cut(rec, span, name)
+        cut(rec, span, name)
     # the columns' magnitudes before resampling (1e300 overflows an interpolant); the inertia
     # is validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)
@@ -148,25 +119,6 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     rec = regularise(rec, name)
     validate(rec, name)
     return rec
-
-
-def _drop_empty_rows(rec: Record, name: str) -> None:
-    """Rows with an empty, NaN or infinite cell in a mapped column are a logger's dropped
-    samples: taken out (counted in the report) and handled as uneven time and gaps are."""
-    cols = ("t", "tau", "q") + (("qd",) if rec.qd is not None else ())
-    ok = np.ones(len(rec.t), dtype=bool)
-    for col in cols:
-        ok &= np.isfinite(getattr(rec, col))
-    if ok.all():
-        return
-    if not ok.any():
-        raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}")
-    for col in cols:
-        setattr(rec, col, getattr(rec, col)[ok])
-    ticks = rec.reading.get("raw_ticks")
-    if ticks is not None:
-        rec.reading["raw_ticks"] = ticks[ok]
-    rec.reading["empty_rows"] = {"dropped": int((~ok).sum()), "first": int(np.argmin(ok)) + 1}
 
 
 def _to_si(rec: Record, name: str) -> None:

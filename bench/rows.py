@@ -1,0 +1,60 @@
+"""Which rows of a file are analysed (``bench.readers``): a logger's lost samples — rows with
+an empty, NaN or infinite cell — are taken out and counted, and ``--window START:END`` keeps
+the part of a long log that holds the excitation."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bench.errors import InputError
+from bench.records import Record
+
+
+def drop_empty_rows(rec: Record, name: str) -> None:
+    """Rows with an empty, NaN or infinite cell in a mapped column are a logger's dropped
+    samples: taken out (counted in the report) and handled as uneven time and gaps are."""
+    cols = ("t", "tau", "q") + (("qd",) if rec.qd is not None else ())
+    ok = np.ones(len(rec.t), dtype=bool)
+    for col in cols:
+        ok &= np.isfinite(getattr(rec, col))
+    if ok.all():
+        return
+    if not ok.any():
+        raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}")
+    for col in cols:
+        setattr(rec, col, getattr(rec, col)[ok])
+    ticks = rec.reading.get("raw_ticks")
+    if ticks is not None:
+        rec.reading["raw_ticks"] = ticks[ok]
+    rec.reading["empty_rows"] = int((~ok).sum())
+
+
+def parse_window(spec: str | None) -> tuple[float, float] | None:
+    """"START:END" (seconds from the first sample; either side may be empty) -> (start, end)."""
+    if spec is None or not str(spec).strip():
+        return None
+    a, colon, b = str(spec).partition(":")
+    try:
+        lo = float(a) if a.strip() else 0.0
+        hi = float(b) if b.strip() else math.inf
+    except ValueError:
+        lo = hi = math.nan
+    if not colon or not (0 <= lo < hi) or math.isnan(hi):
+        raise InputError(f"window {spec!r} is not START:END in seconds from the first sample "
+                         f"(0 <= START < END, e.g. 120:300 or 600:)")
+    return lo, hi
+
+
+def cut(rec: Record, span: tuple[float, float], name: str) -> None:
+    """Keep the samples of ``span`` (seconds from the first sample)."""
+    rel = rec.t - rec.t[0]
+    keep = (rel >= span[0]) & (rel <= span[1])
+    if keep.sum() < 2:
+        raise InputError(f"{name}: the window {span[0]:g}:{span[1]:g} s holds {int(keep.sum())} samples "
+                         f"(the record lasts {rel[-1]:.6g} s)")
+    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
+        setattr(rec, col, getattr(rec, col)[keep])
+    if rec.reading.get("raw_ticks") is not None:
+        rec.reading["raw_ticks"] = rec.reading["raw_ticks"][keep]
+    rec.reading["window"] = {"start": span[0], "end": min(span[1], float(rel[-1])), "samples": int(keep.sum())}
