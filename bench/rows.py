@@ -11,10 +11,22 @@ from bench.errors import InputError
 from bench.records import Record
 
 
+def _columns(rec: Record) -> tuple[str, ...]:
+    return ("t", "tau", "q") + (("qd",) if rec.qd is not None else ())
+
+
+def _keep(rec: Record, mask: np.ndarray) -> None:
+    """Keep the rows of ``mask`` in every column, the file's integer times among them."""
+    for col in _columns(rec):
+        setattr(rec, col, getattr(rec, col)[mask])
+    if rec.reading.get("raw_ticks") is not None:
+        rec.reading["raw_ticks"] = rec.reading["raw_ticks"][mask]
+
+
 def drop_empty_rows(rec: Record, name: str) -> None:
     """Rows with an empty, NaN or infinite cell in a mapped column are a logger's dropped
     samples: taken out (counted in the report) and handled as uneven time and gaps are."""
-    cols = ("t", "tau", "q") + (("qd",) if rec.qd is not None else ())
+    cols = _columns(rec)
     ok = np.ones(len(rec.t), dtype=bool)
     for col in cols:
         ok &= np.isfinite(getattr(rec, col))
@@ -22,11 +34,7 @@ def drop_empty_rows(rec: Record, name: str) -> None:
         return
     if not ok.any():
         raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}")
-    for col in cols:
-        setattr(rec, col, getattr(rec, col)[ok])
-    ticks = rec.reading.get("raw_ticks")
-    if ticks is not None:
-        rec.reading["raw_ticks"] = ticks[ok]
+    _keep(rec, ok)
     rec.reading["empty_rows"] = int((~ok).sum())
 
 
@@ -53,8 +61,5 @@ def cut(rec: Record, span: tuple[float, float], name: str) -> None:
     if keep.sum() < 2:
         raise InputError(f"{name}: the window {span[0]:g}:{span[1]:g} s holds {int(keep.sum())} samples "
                          f"(the record lasts {rel[-1]:.6g} s)")
-    for col in ("t", "tau", "q") + (("qd",) if rec.qd is not None else ()):
-        setattr(rec, col, getattr(rec, col)[keep])
-    if rec.reading.get("raw_ticks") is not None:
-        rec.reading["raw_ticks"] = rec.reading["raw_ticks"][keep]
+    _keep(rec, keep)
     rec.reading["window"] = {"start": span[0], "end": min(span[1], float(rel[-1])), "samples": int(keep.sum())}

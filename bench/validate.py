@@ -89,12 +89,12 @@ def finite_arrays(what: str, **arrays) -> None:
 # --- records, before they reach the numerics (bench analyze, POST /analyze) -------------------
 # Physical bounds in SI units (s, N·m or N, rad or m, kg·m² or kg): a record outside them is a
 # unit mistake or a corrupted file, and its numbers would overflow or vanish in the fit.
-# the step's upper bound: below 5 samples a second no friction record can show presliding or
-# the Stribeck dip (the paper's 0.25 Hz sine would get 20 samples a cycle), while a logger
-# counting milliseconds, read as seconds, steps by 1-10 "s"
-# the analysis holds ~1.5 kB a sample at its peak (a 30-minute log at ~500 Hz, 886 k samples:
-# 1.33 GB resident, 57 s; 2026-11-26): past this a log is cut, not swapped to death or killed
+# The analysis holds ~1.5 kB a sample at its peak (a 30-minute log at ~500 Hz, 886 k samples:
+# 1.33 GB resident, 57 s; 2026-11-26): past this a log is cut, not swapped to death or killed.
 MAX_ANALYSED = 4_000_000
+# The step's upper bound: below 5 samples a second no friction record can show presliding or
+# the Stribeck dip (the paper's 0.25 Hz sine would get 20 samples a cycle), while a logger
+# counting milliseconds, read as seconds, steps by 1-10 "s".
 RECORD_BOUNDS = {"step": (1e-7, 0.2), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "inertia": (1e-9, 1e12)}
 
 
