@@ -109,7 +109,8 @@ class Analysis:
                                       for s, (a, b) in zip(resampling["segments"], c.grid_segments)]
         return {"input": {"format": r.get("format"), "columns": r.get("columns"),
                           "velocity_from": c.velocity_source,
-                          **({"window": r["window"]} if "window" in r else {})},
+                          **({"window": r["window"]} if "window" in r else {}),
+                          **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {})},
                 "units": {"si": True, "conversions": r.get("units", {})},
                 "resampling": resampling}
 
@@ -179,6 +180,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             except NotIdentifiable:
                 raise refused from None
             ident.warnings.insert(0, REVERSED_WARNING)
+        if rec.reading.get("turns_unwrapped"):
+            ident.warnings.insert(0, UNWRAPPED_WARNING.format(n=rec.reading["turns_unwrapped"]))
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
@@ -194,6 +197,10 @@ REVERSED_WARNING = ("the torque column counts positive against the position: at 
                     "friction opposed the motion in both directions, which friction cannot do; "
                     "the torque's sign was reversed (the parameters and residuals are for "
                     "the torque in the position's sense)")
+
+
+UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} wraps: a single-turn encoder, or an "
+                     "angle logged modulo 360 degrees); it was unwrapped before the analysis")
 
 
 def _torque_reversed(rec: Record) -> Record:

@@ -25,6 +25,7 @@ from bench.errors import InputError
 from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
+from bench.turns import unwrap_turns
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
@@ -109,6 +110,9 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     rec.reading.setdefault("format", fmt)
     drop_empty_rows(rec, name)
     _to_si(rec, name)
+    wraps = unwrap_turns(rec)          # in file order, before anything differentiates q
+    if wraps:
+        rec.reading["turns_unwrapped"] = wraps
     if span is not None:
         cut(rec, span, name)
     # the columns' magnitudes before resampling (1e300 overflows an interpolant); the inertia

@@ -232,6 +232,44 @@ def test_a_torque_counting_positive_against_the_position_is_reversed_and_said(jo
     assert not any("reversed" in w for w in right["warnings"])
 
 
+def test_a_position_that_wraps_at_a_whole_turn_is_unwrapped_and_said(tmp_path):
+    """A single-turn encoder (or an angle logged modulo 360 degrees) on the rotary motor, whose
+    sine test turns it by nearly a revolution: each wrap was a 2 pi step inside a sample and the
+    record was refused as "never reaches sliding".  Unwrapped, the parameters are the unwrapped
+    record's, and the report says what was done."""
+    spec = PRESETS["rotary"]
+    rec = simulate_record(spec, *spec.excitation, duration=12.0, seed=5338).record
+    plain = analyze_record(rec, diagnose_effects=False).report()
+    for name, angle, unit in (("zero_to_two_pi.csv", np.mod(rec.q, 2 * np.pi), "rad"),
+                              ("plus_minus_180.csv", np.mod(np.degrees(rec.q + 1.5) + 180.0, 360.0) - 180.0, "deg")):
+        lines = ["t,tau,q"] + [f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in zip(rec.t, rec.tau, angle)]
+        (tmp_path / name).write_text("\n".join(lines))
+        assert np.any(np.abs(np.diff(angle)) > 0.9 * (np.pi if unit == "rad" else 180.0) * 2)
+        out = run("analyze", tmp_path / name, "--no-diagnosis", "--inertia", spec.inertia,
+                  "--position-unit", unit, "--json", tmp_path / "w.json")
+        assert out.returncode == 0, out.stderr
+        doc = json.loads((tmp_path / "w.json").read_text())
+        assert doc["input"]["turns_unwrapped"] >= 2
+        assert "wraps at a whole turn" in doc["warnings"][0]
+        assert doc["parameters"] == pytest.approx(plain["parameters"], rel=1e-5)
+
+
+def test_unwrapping_leaves_real_motion_and_prismatic_joints_alone():
+    """Only whole turns are taken out: a step that is not a whole turn (a glitch, a joint
+    that is sampled too slowly) and a prismatic joint's position stay as they are."""
+    from bench.turns import unwrap_turns
+    t = np.arange(2000) * 1e-3
+    q = 3.0 * np.sin(2 * np.pi * 0.5 * t)
+    glitch = Record(t=t, tau=np.sin(t), q=np.where(np.arange(2000) == 700, q + 4.0, q), meta={})
+    assert unwrap_turns(glitch) == 0 and np.array_equal(glitch.q, np.where(np.arange(2000) == 700, q + 4.0, q))
+    wrapped = np.mod(q, 2 * np.pi)
+    slider = Record(t=t, tau=np.sin(t), q=wrapped.copy(), meta={"joint_type": "prismatic"})
+    assert unwrap_turns(slider) == 0 and np.array_equal(slider.q, wrapped)
+    turning = Record(t=t, tau=np.sin(t), q=wrapped.copy(), meta={"joint_type": "revolute"})
+    assert unwrap_turns(turning) > 0
+    assert np.allclose(turning.q - turning.q[0], q - q[0], atol=1e-12)
+
+
 def test_rows_with_empty_or_nan_cells_are_dropped_samples():
     """A logger that writes an empty cell or "nan" for a sample it lost: the row is dropped,
     counted, and the rest analysed like any logger's uneven time."""
