@@ -315,7 +315,8 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
     res = _fit_lugre(data, est, M)
     if hold == "auto":
         hold = "zoh"
-        if rec.qd is None and _prefers_sampled_torque(rec, data, res):
+        # with a logged qd driving the model the torque is taken as sampled already
+        if data.c.velocity_source != "qd" and _prefers_sampled_torque(rec, data, res):
             hold = "sample"
             data, M = prepare(rec, inertia, cutoff, name, hold)
             est = section3_estimates(data, M, name, revolute)

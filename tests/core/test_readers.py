@@ -270,6 +270,37 @@ def test_unwrapping_leaves_real_motion_and_prismatic_joints_alone():
     assert np.allclose(turning.q - turning.q[0], q - q[0], atol=1e-12)
 
 
+@pytest.mark.parametrize("joint, seed, estimate", [("j1", 5339, "filtered"), ("linear", 5340, "filtered"),
+                                                   ("j3", 5341, "backward difference")])
+def test_a_logged_velocity_that_lags_the_position_is_set_aside(joint, seed, estimate):
+    """A drive's velocity estimate (a first-order filter of 2 ms, or a backward difference on
+    the 4 ms logger grid) lags the position's derivative; driving the model with it, the
+    diagnosis named a `torque_lag` (j1 and the linear stage, these seeds, before).  The velocity
+    now comes from q, as for a record without qd, and the report says why."""
+    from dataclasses import replace
+
+    from scipy.signal import lfilter
+
+    from bench.resample import on_grid
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(PRESETS[joint], "robot joint log", seed)
+    rec = on_grid(rec, "log")
+    if estimate == "filtered":
+        a = rec.dt / (2e-3 + rec.dt)
+        qd = lfilter([a], [1, a - 1], rec.qd, zi=[rec.qd[0] * (1 - a)])[0]
+    else:
+        qd = np.r_[rec.qd[0], np.diff(rec.q) / rec.dt]
+    right = analyze_record(rec).report()
+    assert right["input"]["velocity_from"] == "qd"          # the true velocity keeps time
+    lagging = analyze_record(replace(rec, qd=qd, meta=dict(rec.meta), reading=dict(rec.reading))).report()
+    assert lagging["input"]["velocity_from"].startswith("q (the logged qd lags q's derivative by")
+    assert lagging["final"]["effects"] == [] and not lagging["unexplained"]["structured"]
+    without = analyze_record(replace(rec, qd=None, meta=dict(rec.meta), reading=dict(rec.reading)),
+                             diagnose_effects=False).report()
+    assert lagging["baseline"]["parameters"] == pytest.approx(without["parameters"], rel=1e-9)
+    assert max(rel_errors(lagging, PRESETS[joint]).values()) < 0.05, rel_errors(lagging, PRESETS[joint])
+
+
 def test_rows_with_empty_or_nan_cells_are_dropped_samples():
     """A logger that writes an empty cell or "nan" for a sample it lost: the row is dropped,
     counted, and the rest analysed like any logger's uneven time."""
