@@ -110,7 +110,8 @@ class Analysis:
         return {"input": {"format": r.get("format"), "columns": r.get("columns"),
                           "velocity_from": c.velocity_source,
                           **({"window": r["window"]} if "window" in r else {}),
-                          **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {})},
+                          **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {}),
+                          **({"time_counter": r["time_counter"]} if "time_counter" in r else {})},
                 "units": {"si": True, "conversions": r.get("units", {})},
                 "resampling": resampling}
 
@@ -180,6 +181,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             except NotIdentifiable:
                 raise refused from None
             ident.warnings.insert(0, REVERSED_WARNING)
+        if rec.reading.get("time_counter"):
+            ident.warnings.insert(0, COUNTER_WARNING.format(**rec.reading["time_counter"]))
         if rec.reading.get("turns_unwrapped"):
             ident.warnings.insert(0, UNWRAPPED_WARNING.format(n=rec.reading["turns_unwrapped"]))
         diag = None
@@ -199,8 +202,13 @@ REVERSED_WARNING = ("the torque column counts positive against the position: at 
                     "the torque in the position's sense)")
 
 
-UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} wraps: a single-turn encoder, or an "
-                     "angle logged modulo 360 degrees); it was unwrapped before the analysis")
+UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the record: a single-turn "
+                     "encoder, or an angle logged modulo 360 degrees); it was unwrapped before "
+                     "the analysis")
+
+
+COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
+                   "record); it was unwrapped before the analysis")
 
 
 def _torque_reversed(rec: Record) -> Record:

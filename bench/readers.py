@@ -24,6 +24,7 @@ import numpy as np
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
+from bench.counters import unwrap_counter
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.turns import unwrap_turns
 from bench.validate import record_magnitudes
@@ -109,6 +110,9 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
     drop_empty_rows(rec, name)
+    counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
+    if counter:
+        rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}
     _to_si(rec, name)
     wraps = unwrap_turns(rec)          # in file order, before anything differentiates q
     if wraps:

@@ -301,6 +301,43 @@ def test_a_logged_velocity_that_lags_the_position_is_set_aside(joint, seed, esti
     assert max(rel_errors(lagging, PRESETS[joint]).values()) < 0.05, rel_errors(lagging, PRESETS[joint])
 
 
+@pytest.mark.parametrize("unit, bits, seed", [("ms", 16, 5344), ("us", 32, 5345)])
+def test_a_time_counter_that_wraps_is_unwrapped_and_written_back_as_the_file_has_it(tmp_path, unit, bits, seed):
+    """A drive's or logger's free-running counter as the time column (16-bit milliseconds wrap
+    every 65.5 s, 32-bit microseconds every 71.6 min): crossing the wrap read as time going
+    back and the file was refused.  Unwrapped in the file's unit, the same parameters as the
+    counts without the wrap; --residuals writes t as the file holds it; a decrease that is
+    not a wrap is still refused."""
+    spec = PRESETS["j4"]
+    rec = simulate_record(spec, *spec.excitation, duration=14.0, seed=seed).record
+    per_s = {"ms": 1e3, "us": 1e6}[unit]
+    counts = np.round(rec.t * per_s).astype(np.int64)
+    start = 2 ** bits - int(5.5 * per_s)          # the counter wraps 5.5 s into the record
+    wrapped = (counts + start) % 2 ** bits
+    meta = f"# inertia: {spec.inertia}\n# time_unit: {unit}\n"
+
+    def write(path, t):
+        path.write_text(meta + "t,tau,q\n" + "\n".join(f"{a},{b:.9g},{c:.12g}" for a, b, c in zip(t, rec.tau, rec.q)))
+
+    write(tmp_path / "wrapped.csv", wrapped)
+    write(tmp_path / "plain.csv", counts + start)
+    docs = {}
+    for name in ("wrapped", "plain"):
+        out = run("analyze", tmp_path / f"{name}.csv", "--no-diagnosis", "--json", tmp_path / f"{name}.json",
+                  "--residuals", tmp_path / f"{name}_res.csv")
+        assert out.returncode == 0, out.stderr
+        docs[name] = json.loads((tmp_path / f"{name}.json").read_text())
+    assert docs["wrapped"]["input"]["time_counter"] == {"bits": bits, "wraps": 1}
+    assert "counter that wraps" in docs["wrapped"]["warnings"][0] and "time_counter" not in docs["plain"]["input"]
+    assert docs["wrapped"]["parameters"] == pytest.approx(docs["plain"]["parameters"], rel=1e-9)
+    written = [int(ln.split(",")[0]) for ln in (tmp_path / "wrapped_res.csv").read_text().splitlines()[1:]]
+    assert written == wrapped.tolist()
+    restarted = np.concatenate([counts[:7000], counts[7000:] - counts[7000] + 5])   # a logger restarted
+    write(tmp_path / "restart.csv", restarted)
+    out = run("analyze", tmp_path / "restart.csv", "--no-diagnosis")
+    assert out.returncode == 2 and "time is not increasing" in out.stderr and len(out.stderr.splitlines()) == 1
+
+
 def test_rows_with_empty_or_nan_cells_are_dropped_samples():
     """A logger that writes an empty cell or "nan" for a sample it lost: the row is dropped,
     counted, and the rest analysed like any logger's uneven time."""
