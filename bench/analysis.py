@@ -112,7 +112,8 @@ class Analysis:
                           **({"window": r["window"]} if "window" in r else {}),
                           **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {}),
                           **({"time_counter": r["time_counter"]} if "time_counter" in r else {})},
-                "units": {"si": True, "conversions": r.get("units", {})},
+                "units": {"si": True, "conversions": r.get("units", {}),
+                          **({"from_header": r["header_units"]["taken"]} if r.get("header_units") else {})},
                 "resampling": resampling}
 
     def write_residuals(self, path: Path) -> Path:
@@ -181,6 +182,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             except NotIdentifiable:
                 raise refused from None
             ident.warnings.insert(0, REVERSED_WARNING)
+        for role, why in rec.reading.get("header_units", {}).get("ignored", {}).items():
+            ident.warnings.insert(0, f"the header states the {role} column's unit: {why}")
         if rec.reading.get("time_counter"):
             ident.warnings.insert(0, COUNTER_WARNING.format(**rec.reading["time_counter"]))
         if rec.reading.get("turns_unwrapped"):

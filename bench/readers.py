@@ -25,6 +25,7 @@ from bench.errors import InputError
 from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.counters import unwrap_counter
+from bench import header_units
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.turns import unwrap_turns
 from bench.validate import record_magnitudes
@@ -74,6 +75,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
     fmt = _format(raw, name)
     mapping = parse_columns(columns) if isinstance(columns, str) or columns is None else dict(columns)
+    units_row: dict = {}
     if fmt == "parquet":
         table, meta = _parquet(raw, name)
         trace = _trace_record(table, mapping, name)
@@ -82,12 +84,15 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     elif fmt == "mat":
         table, meta = _mat(raw, name)
     else:
-        table, meta, fmt = _text(raw, name)
-    mapping = mapping or {r: r for r in ROLES if r in _names(table) or r in REQUIRED}
-    data = {}
+        table, meta, fmt, units_row = _text(raw, name)
+    mapping = mapping or header_units.default_mapping(_names(table), ROLES, REQUIRED)
+    data, stated = {}, {}
     clock, ticks = False, None
     for role, col in mapping.items():
         key = _column_key(table, col, role, name, explicit=columns is not None)
+        unit = units_row.get(key) or header_units.unit_in_name(str(key))
+        if unit and role in header_units.KEYS:
+            stated[role] = unit
         values = table.column(key) if hasattr(table, "column_names") else table[key]
         data[role] = _numeric(values, key, name, time=role == "t")
         if role == "t" and isinstance(data[role], _ClockSeconds):
@@ -101,6 +106,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["raw_ticks"] = ticks
     if clock:
         rec.reading["clock_time"] = True
+    if stated:
+        rec.reading["stated_units"] = stated
     return _finish(rec, name, fmt, opts, span)
 
 
@@ -109,6 +116,8 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
         if value is not None:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
+    header_units.apply(rec, {"t": TIME_UNITS, "q": POSITION_UNITS, "tau": TORQUE_UNITS},
+                       {jt: {"t": "s", "q": si[0], "tau": si[1]} for jt, si in SI.items()})
     drop_empty_rows(rec, name)
     counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
     if counter:
@@ -224,6 +233,13 @@ def _text(raw: bytes, name: str):
     elif len(set(header)) != len(header):
         raise InputError(f"{name}: duplicate column names in header")
     second = first if headerless else _line(body, 1)
+    units_row = None if headerless else header_units.split_units_row(
+        header, [f for f in second.split(sep)] if delim else second.split())
+    if units_row:    # a data-acquisition export's units under the names: read, then skipped
+        at = body.find("\n") + 1
+        nxt = body.find("\n", at)
+        body = body[:at] + (body[nxt + 1:] if nxt >= 0 else "")
+        second = _line(body, 1)
     decimal = "," if sep != "," and "," in second else "."
     try:
         table = pacsv.read_csv(
@@ -239,7 +255,7 @@ def _text(raw: bytes, name: str):
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
-    return table, meta, fmt
+    return table, meta, fmt, units_row or {}
 
 
 _META = re.compile(r"^[ \t]*(#.*)$\n?", re.M)

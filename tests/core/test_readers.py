@@ -338,6 +338,42 @@ def test_a_time_counter_that_wraps_is_unwrapped_and_written_back_as_the_file_has
     assert out.returncode == 2 and "time is not increasing" in out.stderr and len(out.stderr.splitlines()) == 1
 
 
+def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp_path):
+    """Loggers write units into the header ("angle [deg]") or in a row under it; an angle in
+    degrees had been analysed as radians without a word.  Stated units are used (the report
+    says so), an option or metadata line wins (a warning names the conflict), a unit that is
+    not one for the column is left alone and said, and a length makes the joint prismatic."""
+    spec = PRESETS["j2"]
+    rec = simulate_record(spec, *spec.excitation, duration=12.0, seed=5346).record
+    rows = list(zip(rec.t, rec.tau, rec.q))
+    meta = f"# inertia: {spec.inertia}\n"
+
+    def analyse(fname, text, *opts):
+        (tmp_path / fname).write_text(meta + text)
+        out = run("analyze", tmp_path / fname, "--no-diagnosis", "--json", tmp_path / "d.json", *opts)
+        assert out.returncode == 0, out.stderr
+        return json.loads((tmp_path / "d.json").read_text())
+
+    si = analyse("si.csv", "t,tau,q\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows))
+    in_names = analyse("names.csv", "t [ms];tau (Nm);q [deg]\n" + "\n".join(
+        f"{a * 1e3:.3f};{b:.9g};{np.degrees(c):.12g}" for a, b, c in rows))
+    units_row = analyse("row.csv", "time\ttorque\tangle\nms\tN·m\tdeg\n" + "\n".join(
+        f"{a * 1e3:.3f}\t{b:.9g}\t{np.degrees(c):.12g}" for a, b, c in rows), "--columns", "t=time,tau=torque,q=angle")
+    for doc in (in_names, units_row):
+        assert doc["units"]["from_header"] == {"t": "ms", "tau": "N*m", "q": "deg"}
+        assert doc["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
+    amps = analyse("amps.csv", "t,tau [A],q [rad]\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows))
+    assert amps["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
+    assert any("'A' is not a torque or force unit" in w for w in amps["warnings"])
+    overridden = analyse("over.csv", "t,tau,q [deg]\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows),
+                         "--position-unit", "rad")
+    assert overridden["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
+    assert any("position_unit 'rad' was given and is used" in w for w in overridden["warnings"])
+    slider = read_record(b"t,F [N],x [mm]\n" + "\n".join(f"{a:.6f},{b:.9g},{c * 1e3:.9g}" for a, b, c in rows).encode(),
+                         name="stage.csv", columns="t=t,tau=F [N],q=x [mm]", inertia=spec.inertia)
+    assert slider.meta["joint_type"] == "prismatic" and np.allclose(slider.q, rec.q, atol=1e-9)
+
+
 def test_rows_with_empty_or_nan_cells_are_dropped_samples():
     """A logger that writes an empty cell or "nan" for a sample it lost: the row is dropped,
     counted, and the rest analysed like any logger's uneven time."""
