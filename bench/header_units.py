@@ -11,16 +11,17 @@ from __future__ import annotations
 
 import re
 
-# "name [unit]", "name (unit)", "name in unit", "name/unit" at the end of a column name
+# "name [unit]", "name (unit)" or "name/unit" at the end of a column name
 _BRACKETED = re.compile(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$")
 _SLASHED = re.compile(r"^[A-Za-z_][\w .]*/\s*([A-Za-zµ°·*.]+)\s*$")
 
 KEYS = {"t": "time_unit", "q": "position_unit", "tau": "torque_unit"}
 ROLE_NAMES = {"t": "time", "q": "position", "tau": "torque or force"}
+# how units are written, to the readers' spelling (bench.readers' tables)
 ALIASES = {"sec": "s", "second": "s", "seconds": "s", "msec": "ms", "µs": "us", "usec": "us",
            "°": "deg", "degree": "deg", "degrees": "deg", "radian": "rad", "radians": "rad",
-           "revolutions": "rev", "Nm": "N*m", "N.m": "N*m", "N·m": "N*m", "mNm": "mN*m",
-           "kNm": "kN*m", "Nmm": "N*mm", "µm": "um"}
+           "revolutions": "rev", "Nm": "N*m", "N.m": "N*m", "mNm": "mN*m", "kNm": "kN*m",
+           "Nmm": "N*mm", "µm": "um"}
 
 
 KNOWN = {"s", "ms", "us", "ns", "rad", "deg", "rev", "m", "mm", "um", "N*m", "mN*m", "kN*m", "N*mm",
@@ -39,7 +40,7 @@ def unit_in_name(name: str) -> str | None:
 
 
 def normalise(unit: str) -> str:
-    u = unit.strip().replace(" ", "")
+    u = unit.strip().replace(" ", "").replace("·", "*")
     return ALIASES.get(u, u)
 
 
@@ -59,13 +60,14 @@ def split_units_row(header: list[str], second: list[str]) -> dict | None:
 
 def apply(rec, tables: dict, si_names: dict) -> None:
     """Take the units ``rec.reading['stated_units']`` ({role: unit as written}) states where
-    no option or metadata line gave one.  ``tables``: {role: {joint type or None: {unit:
-    factor}}}; a length or force unit with no joint type stated makes the joint prismatic."""
+    no option or metadata line gave one.  ``tables``: the readers' {role: units} (position
+    and torque by joint type); a length or force unit with no joint type stated makes the
+    joint prismatic."""
     stated = rec.reading.pop("stated_units", None)
     if not stated:
         return
     units = {role: normalise(u) for role, u in stated.items()}
-    taken, ignored = {}, {}
+    taken, warned = {}, {}
     if "joint_type" not in rec.meta and (units.get("q") in tables["q"]["prismatic"]
                                          or units.get("tau") in tables["tau"]["prismatic"]):
         rec.meta["joint_type"] = taken["joint_type"] = "prismatic"
@@ -73,19 +75,15 @@ def apply(rec, tables: dict, si_names: dict) -> None:
     for role, unit in units.items():
         key = KEYS[role]
         if key in rec.meta:               # an option or a metadata line says it, and wins
-            said = normalise(str(rec.meta[key]))
-            if said != unit and {said, unit} != {"s", "sec"}:
-                ignored[role] = f"{stated[role]!r}, but {key} {rec.meta[key]!r} was given and is used"
+            if normalise(str(rec.meta[key])) != unit:
+                warned[role] = f"{stated[role]!r}, but {key} {rec.meta[key]!r} was given and is used"
             continue
         known = tables[role] if role == "t" else tables[role].get(jt, {})
         if unit in known:
             rec.meta[key] = taken[role] = unit
         else:
-            ignored[role] = stated[role]
-    for role, u in list(ignored.items()):
-        if u == stated[role]:
-            ignored[role] = f"{u!r} is not a {ROLE_NAMES[role]} unit: taken in {si_names[jt][role]}"
-    rec.reading["header_units"] = {"taken": taken, "ignored": ignored}
+            warned[role] = f"{stated[role]!r} is not a {ROLE_NAMES[role]} unit: taken in {si_names[jt][role]}"
+    rec.reading["header_units"] = {"taken": taken, "ignored": warned}
 
 
 def default_mapping(names: list[str], roles, required) -> dict:

@@ -145,7 +145,7 @@ def _to_si(rec: Record, name: str) -> None:
     conv = {}
     unit = rec.meta.get("time_unit")
     if unit is not None:
-        unit = str(unit).strip().replace("µs", "us")
+        unit = header_units.normalise(str(unit))
         if unit not in TIME_UNITS:
             raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)}")
         rec.meta["time_unit"] = "s"
@@ -157,10 +157,8 @@ def _to_si(rec: Record, name: str) -> None:
         unit = rec.meta.get(key)
         if unit is None:
             continue
-        unit = str(unit).replace("·", "*").replace(" ", "")
+        unit = header_units.normalise(str(unit))
         known = table[jt]
-        unit = {"Nm": "N*m", "N.m": "N*m", "mNm": "mN*m", "kNm": "kN*m", "Nmm": "N*mm", "µm": "um",
-                "degrees": "deg", "radians": "rad"}.get(unit, unit)
         if unit not in known:
             raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
                              f"(known: {', '.join(known)})")
