@@ -44,6 +44,23 @@ def normalise(unit: str) -> str:
     return ALIASES.get(u, u)
 
 
+_SCALED = re.compile(r"^([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\*(.+)$")
+
+
+def factor_of(unit: str, known: dict) -> tuple[float, str] | None:
+    """(factor to SI, unit as spelled) for a unit of ``known`` ({unit: factor}), also written
+    with a scale: "0.12*N*m" (a current in A with a torque constant of 0.12 N·m/A),
+    "0.0015339808*rad" (encoder counts, 4096 a turn), "25*ns" (a 40 MHz tick); None if not
+    a unit of ``known``."""
+    u = normalise(unit)
+    if u in known:
+        return known[u], u
+    m = _SCALED.match(u)
+    if m and normalise(m.group(2)) in known and float(m.group(1)) > 0:
+        return float(m.group(1)) * known[normalise(m.group(2))], u
+    return None
+
+
 def split_units_row(header: list[str], second: list[str]) -> dict | None:
     """{column: unit} when the line under a named header holds units, not numbers: every field
     non-numeric and none empty (a data row with a lost cell has numbers beside it)."""
@@ -79,10 +96,12 @@ def apply(rec, tables: dict, si_names: dict) -> None:
                 warned[role] = f"{stated[role]!r}, but {key} {rec.meta[key]!r} was given and is used"
             continue
         known = tables[role] if role == "t" else tables[role].get(jt, {})
-        if unit in known:
+        if factor_of(unit, known):
             rec.meta[key] = taken[role] = unit
         else:
-            warned[role] = f"{stated[role]!r} is not a {ROLE_NAMES[role]} unit: taken in {si_names[jt][role]}"
+            si = si_names[jt][role]
+            warned[role] = (f"{stated[role]!r} is not a {ROLE_NAMES[role]} unit: taken in {si} "
+                            f"(give {key.replace('_', '-')} K*{si}, K in {si} per {stated[role]})")
     rec.reading["header_units"] = {"taken": taken, "ignored": warned}
 
 

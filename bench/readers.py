@@ -145,24 +145,26 @@ def _to_si(rec: Record, name: str) -> None:
     conv = {}
     unit = rec.meta.get("time_unit")
     if unit is not None:
-        unit = header_units.normalise(str(unit))
-        if unit not in TIME_UNITS:
-            raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)}")
+        found = header_units.factor_of(str(unit), TIME_UNITS)
+        if found is None:
+            raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)} "
+                             f"(or K*UNIT, e.g. 25*ns)")
+        factor, unit = found
         rec.meta["time_unit"] = "s"
         # clock times (ISO 8601, Parquet timestamps) are read in seconds whatever the option
-        if TIME_UNITS[unit] != 1.0 and not rec.reading.get("clock_time"):
-            conv["time"] = {"from": unit, "to": "s", "factor": TIME_UNITS[unit]}
-            rec.t = np.asarray(rec.t, dtype=float) * TIME_UNITS[unit]
+        if factor != 1.0 and not rec.reading.get("clock_time"):
+            conv["time"] = {"from": unit, "to": "s", "factor": factor}
+            rec.t = np.asarray(rec.t, dtype=float) * factor
     for key, table, role in (("position_unit", POSITION_UNITS, "position"), ("torque_unit", TORQUE_UNITS, "torque")):
         unit = rec.meta.get(key)
         if unit is None:
             continue
-        unit = header_units.normalise(str(unit))
         known = table[jt]
-        if unit not in known:
+        found = header_units.factor_of(str(unit), known)
+        if found is None:
             raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
-                             f"(known: {', '.join(known)})")
-        factor = known[unit]
+                             f"(known: {', '.join(known)}, or K*UNIT such as 0.12*{SI[jt][1 if role == 'torque' else 0]})")
+        factor, unit = found
         if factor != 1.0:
             si = SI[jt][0 if role == "position" else 1]
             conv[role] = {"from": unit, "to": si, "factor": factor}

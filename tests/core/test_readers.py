@@ -364,7 +364,14 @@ def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp
         assert doc["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
     amps = analyse("amps.csv", "t,tau [A],q [rad]\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows))
     assert amps["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
-    assert any("'A' is not a torque or force unit" in w for w in amps["warnings"])
+    assert any("'A' is not a torque or force unit" in w and "torque-unit K*N*m" in w for w in amps["warnings"])
+    # ... and said with a scale: a current with its torque constant, encoder counts, ticks
+    kt, per_turn = 0.12, 4096
+    scaled = analyse("scaled.csv", "t [ticks],tau [A],q [counts]\n" + "\n".join(
+        f"{round(a * 40e6)},{b / kt:.12g},{c * per_turn / (2 * np.pi):.12g}" for a, b, c in rows),
+        "--torque-unit", f"{kt}*N*m", "--position-unit", f"{2 * np.pi / per_turn!r}*rad", "--time-unit", "25*ns")
+    assert scaled["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
+    assert scaled["units"]["conversions"]["torque"]["factor"] == pytest.approx(kt)
     overridden = analyse("over.csv", "t,tau,q [deg]\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows),
                          "--position-unit", "rad")
     assert overridden["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
