@@ -176,6 +176,29 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
         assert r.status_code == 422 and expect in r.json()["detail"] and "\n" not in r.json()["detail"], r.text
 
 
+def test_analyze_a_logger_file_stating_its_units_with_a_wrapping_counter_and_angle(operator):
+    """A logger's CSV as it comes (units in the header, a 16-bit millisecond counter, an angle
+    in [-180, 180) degrees) through the server: the same parameters as the SI record, and the
+    report says what was read and unwrapped."""
+    import numpy as np
+    spec = preset("rotary")
+    rec = simulate_record(spec, *spec.excitation, 8.0, dt=1e-3, seed=5402).record
+    si = operator.post("/analyze", content=rec.to_csv(), headers={"content-type": "text/csv"},
+                       params={"diagnose": "false"}, timeout=180)
+    assert si.status_code == 200, si.text
+    ms = (np.round(rec.t * 1e3).astype(np.int64) + 62000) % 65536
+    angle = np.mod(np.degrees(rec.q + 2.0) + 180.0, 360.0) - 180.0
+    text = f"# inertia: {spec.inertia}\nt [ms],tau [Nm],q [deg]\n" + "\n".join(
+        f"{a},{b:.9g},{c:.12g}" for a, b, c in zip(ms, rec.tau, angle))
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=180)
+    assert r.status_code == 200, r.text
+    doc = r.json()
+    assert doc["units"]["from_header"] == {"t": "ms", "tau": "N*m", "q": "deg"}
+    assert doc["input"]["time_counter"] == {"bits": 16, "wraps": 1} and doc["input"]["turns_unwrapped"] >= 1
+    assert doc["parameters"] == pytest.approx(si.json()["parameters"], rel=1e-5)
+
+
 @pytest.mark.parametrize("content, ctype, status", [
     (b"t,tau\n0,1\n", "text/csv", 422),
     (b"\xff\xfe\x00garbage", "text/csv", 422),
