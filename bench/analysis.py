@@ -104,6 +104,8 @@ class Analysis:
         resampling = dict(r.get("resampling", {}))
         if "empty_rows" in r:    # rows with an empty, NaN or infinite cell (bench.readers)
             resampling["empty_rows_dropped"] = r["empty_rows"]
+        if "glitches" in r:      # position samples off their neighbours (bench.glitches)
+            resampling["position_glitches_mended"] = r["glitches"]
         if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
             resampling["segments"] = [dict(s, scored=bool(mask[a:b].any()))
                                       for s, (a, b) in zip(resampling["segments"], c.grid_segments)]
@@ -184,6 +186,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             ident.warnings.insert(0, REVERSED_WARNING)
         for role, why in rec.reading.get("header_units", {}).get("ignored", {}).items():
             ident.warnings.insert(0, f"the header states the {role} column's unit: {why}")
+        if rec.reading.get("glitches"):
+            ident.warnings.insert(0, GLITCH_WARNING.format(n=rec.reading["glitches"]))
         if rec.reading.get("time_counter"):
             ident.warnings.insert(0, COUNTER_WARNING.format(**rec.reading["time_counter"]))
         if rec.reading.get("turns_unwrapped"):
@@ -210,6 +214,8 @@ UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the recor
                      "the analysis")
 
 
+GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and back (encoder or "
+                  "logger glitches): their positions were interpolated from the samples around them")
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
 

@@ -2,41 +2,34 @@
 
 ``read_record`` takes a file (path or bytes) and an optional column mapping
 (``t=NAME,tau=NAME,q=NAME[,qd=NAME]``; a name may also be a 1-based column number), takes
-metadata from ``#`` lines (CSV), scalar variables (.mat) or options, converts positions and
-torques to SI, puts uneven timestamps on a uniform grid (``bench.resample``) and validates.
-What was done is kept in ``Record.reading`` (``format``, ``columns``, ``units``,
-``resampling``) for the report.  Every problem is an ``InputError`` of one line.
-
-Units (``time_unit``, ``position_unit``, ``torque_unit``; the inertia is always SI: kg·m² or
-kg): time s, ms, us, ns (loggers count milliseconds or nanoseconds as often as seconds; clock
-times such as ISO 8601 strings carry their own); revolute rad, deg, rev and N*m, mN*m, kN*m,
-N*mm; prismatic m, mm, um and N, mN, kN.
+metadata from ``#`` lines (CSV), scalar variables (.mat), options or the header's own units,
+and then, in this order (``_finish``): drops rows with lost cells (``bench.rows``), unwraps a
+wrapping time counter (``bench.counters``), converts to SI (``bench.units``), unwraps a
+position that wraps at whole turns (``bench.turns``), cuts the window,
+mends position glitches (``bench.glitches``), puts uneven timestamps on a uniform grid
+(``bench.resample``) and validates.  What was done is kept in ``Record.reading`` for the
+report.  Every problem is an ``InputError`` of one line.
 """
 from __future__ import annotations
 
 import io
-import math
 import re
 from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.records import JOINT_TYPES, REQUIRED, Record, _parse_meta_value, split_metadata, validate
-from bench.resample import regularise
-from bench.counters import unwrap_counter
 from bench import header_units
+from bench.counters import unwrap_counter
+from bench.errors import InputError
+from bench.glitches import mend_glitches
+from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
+from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.turns import unwrap_turns
+from bench.units import POSITION_UNITS, SI, TIME_UNITS, TORQUE_UNITS, to_si
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
-POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi},
-                  "prismatic": {"m": 1.0, "mm": 1e-3, "um": 1e-6}}
-TORQUE_UNITS = {"revolute": {"N*m": 1.0, "mN*m": 1e-3, "kN*m": 1e3, "N*mm": 1e-3},
-                "prismatic": {"N": 1.0, "mN": 1e-3, "kN": 1e3}}
-SI = {"revolute": ("rad", "N*m"), "prismatic": ("m", "N")}
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 META_UNITS = ("joint_type", "time_unit", "position_unit", "torque_unit", "torque_hold")
 
 
@@ -122,59 +115,23 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
     if counter:
         rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}
-    _to_si(rec, name)
+    to_si(rec, name)
     wraps = unwrap_turns(rec)          # in file order, before anything differentiates q
     if wraps:
         rec.reading["turns_unwrapped"] = wraps
     if span is not None:
         cut(rec, span, name)
-    # the columns' magnitudes before resampling (1e300 overflows an interpolant); the inertia
-    # is validate()'s, below
+    # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
+    # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)
+    glitches = mend_glitches(rec)      # an encoder's bad samples, once whole turns are out
+    if glitches:
+        rec.reading["glitches"] = glitches
     # for --residuals at the record's own times (converted back to the file's unit there)
     rec.reading["raw_t"] = np.array(rec.t, dtype=float)
     rec = regularise(rec, name)
     validate(rec, name)
     return rec
-
-
-def _to_si(rec: Record, name: str) -> None:
-    jt = str(rec.meta.get("joint_type", "revolute"))
-    if jt not in JOINT_TYPES:
-        raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
-    conv = {}
-    unit = rec.meta.get("time_unit")
-    if unit is not None:
-        found = header_units.factor_of(str(unit), TIME_UNITS)
-        if found is None:
-            raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)} "
-                             f"(or K*UNIT, e.g. 25*ns)")
-        factor, unit = found
-        rec.meta["time_unit"] = "s"
-        # clock times (ISO 8601, Parquet timestamps) are read in seconds whatever the option
-        if factor != 1.0 and not rec.reading.get("clock_time"):
-            conv["time"] = {"from": unit, "to": "s", "factor": factor}
-            rec.t = np.asarray(rec.t, dtype=float) * factor
-    for key, table, role in (("position_unit", POSITION_UNITS, "position"), ("torque_unit", TORQUE_UNITS, "torque")):
-        unit = rec.meta.get(key)
-        if unit is None:
-            continue
-        known = table[jt]
-        found = header_units.factor_of(str(unit), known)
-        if found is None:
-            raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
-                             f"(known: {', '.join(known)}, or K*UNIT such as 0.12*{SI[jt][1 if role == 'torque' else 0]})")
-        factor, unit = found
-        if factor != 1.0:
-            si = SI[jt][0 if role == "position" else 1]
-            conv[role] = {"from": unit, "to": si, "factor": factor}
-            rec.meta[key] = si
-            if role == "position":
-                rec.q = rec.q * factor
-                rec.qd = None if rec.qd is None else rec.qd * factor
-            else:
-                rec.tau = rec.tau * factor
-    rec.reading["units"] = conv
 
 
 # --- loading ---------------------------------------------------------------------------------

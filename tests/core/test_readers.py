@@ -381,6 +381,45 @@ def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp
     assert slider.meta["joint_type"] == "prismatic" and np.allclose(slider.q, rec.q, atol=1e-9)
 
 
+@pytest.mark.parametrize("joint, condition, seed", [("j2", "white process noise", 5347),
+                                                    ("linear", "coarse encoder", 5348),
+                                                    ("j3", "jittered timestamps with dropped samples", 5349)])
+def test_position_glitches_are_mended_and_said(joint, condition, seed):
+    """An encoder's bad samples (eight, three of them two samples long, 1 % of the travel):
+    left in, one such record became Fc 245 000x the truth with a `joint_flexibility` credited
+    and "nothing left".  Mended from the samples around them, the record analyses like the
+    clean one: nothing credited, nothing left, Fc, Fs, sigma2 within 5 %."""
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(PRESETS[joint], condition, seed)
+    rng = np.random.default_rng(seed)
+    at = rng.choice(np.arange(200, len(rec.t) - 200), 8, replace=False)
+    h = 0.01 * np.ptp(rec.q) * rng.choice([-1, 1], len(at))
+    q = rec.q.copy()
+    q[at] += h
+    q[at[:3] + 1] += h[:3]
+    meta = "".join(f"# {k}: {v}\n" for k, v in rec.meta.items() if k in ("inertia", "joint_type", "torque_hold"))
+    text = meta + "t,tau,q\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in zip(rec.t, rec.tau, q))
+    doc = analyze_record(read_record(text.encode(), name="glitchy.csv")).report()
+    assert doc["resampling"]["position_glitches_mended"] == 11
+    assert "jumped away from their neighbours" in doc["warnings"][0]
+    assert doc["final"]["effects"] == [] and not doc["unexplained"]["structured"], doc["diagnosis"][:2]
+    assert max(rel_errors(doc, PRESETS[joint]).values()) < 0.05, rel_errors(doc, PRESETS[joint])
+
+
+def test_ringing_contacts_and_coarse_encoders_are_not_glitches():
+    """What must not be mended: a gear's contact ringing at 200 Hz, lightly damped, seen by
+    the motor encoder (5 samples a period), and a coarse encoder's counts at rest."""
+    from independent_joint import independent_record
+
+    from bench.glitches import find_glitches
+    from virtual_drives.conditions import make_record
+    ringing, _ = independent_record(PRESETS["linear"], seed=5350, backlash=0.003, contact_hz=200.0,
+                                    contact_damping=0.02)
+    coarse, _ = make_record(PRESETS["j4"], "coarse encoder", 5351)
+    for rec in (ringing, coarse):
+        assert not find_glitches(np.asarray(rec.t, float), np.asarray(rec.q, float)).any()
+
+
 def test_rows_with_empty_or_nan_cells_are_dropped_samples():
     """A logger that writes an empty cell or "nan" for a sample it lost: the row is dropped,
     counted, and the rest analysed like any logger's uneven time."""

@@ -1,0 +1,59 @@
+"""The units a record can be in, and its conversion to SI (``bench.readers``): time s, ms, us,
+ns; revolute rad, deg, rev and N*m, mN*m, kN*m, N*mm; prismatic m, mm, um and N, mN, kN; any
+of them with a scale, K*UNIT (``bench.header_units.factor_of``).  What was converted is kept
+in ``Record.reading['units']`` for the report."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bench import header_units
+from bench.errors import InputError
+from bench.records import JOINT_TYPES, Record
+
+POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi},
+                  "prismatic": {"m": 1.0, "mm": 1e-3, "um": 1e-6}}
+TORQUE_UNITS = {"revolute": {"N*m": 1.0, "mN*m": 1e-3, "kN*m": 1e3, "N*mm": 1e-3},
+                "prismatic": {"N": 1.0, "mN": 1e-3, "kN": 1e3}}
+SI = {"revolute": ("rad", "N*m"), "prismatic": ("m", "N")}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+
+
+def to_si(rec: Record, name: str) -> None:
+    jt = str(rec.meta.get("joint_type", "revolute"))
+    if jt not in JOINT_TYPES:
+        raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
+    conv = {}
+    unit = rec.meta.get("time_unit")
+    if unit is not None:
+        found = header_units.factor_of(str(unit), TIME_UNITS)
+        if found is None:
+            raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)} "
+                             f"(or K*UNIT, e.g. 25*ns)")
+        factor, unit = found
+        rec.meta["time_unit"] = "s"
+        # clock times (ISO 8601, Parquet timestamps) are read in seconds whatever the option
+        if factor != 1.0 and not rec.reading.get("clock_time"):
+            conv["time"] = {"from": unit, "to": "s", "factor": factor}
+            rec.t = np.asarray(rec.t, dtype=float) * factor
+    for key, table, role in (("position_unit", POSITION_UNITS, "position"), ("torque_unit", TORQUE_UNITS, "torque")):
+        unit = rec.meta.get(key)
+        if unit is None:
+            continue
+        known = table[jt]
+        found = header_units.factor_of(str(unit), known)
+        if found is None:
+            raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
+                             f"(known: {', '.join(known)}, or K*UNIT such as 0.12*{SI[jt][1 if role == 'torque' else 0]})")
+        factor, unit = found
+        if factor != 1.0:
+            si = SI[jt][0 if role == "position" else 1]
+            conv[role] = {"from": unit, "to": si, "factor": factor}
+            rec.meta[key] = si
+            if role == "position":
+                rec.q = rec.q * factor
+                rec.qd = None if rec.qd is None else rec.qd * factor
+            else:
+                rec.tau = rec.tau * factor
+    rec.reading["units"] = conv
