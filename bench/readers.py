@@ -26,7 +26,7 @@ from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, v
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.turns import unwrap_turns
-from bench.units import POSITION_UNITS, SI, TIME_UNITS, TORQUE_UNITS, to_si
+from bench.units import to_si
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
@@ -109,8 +109,7 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
         if value is not None:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
-    header_units.apply(rec, {"t": TIME_UNITS, "q": POSITION_UNITS, "tau": TORQUE_UNITS},
-                       {jt: {"t": "s", "q": si[0], "tau": si[1]} for jt, si in SI.items()})
+    header_units.apply(rec)
     drop_empty_rows(rec, name)
     counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
     if counter:

@@ -1,14 +1,14 @@
 """The units a record can be in, and its conversion to SI (``bench.readers``): time s, ms, us,
-ns; revolute rad, deg, rev and N*m, mN*m, kN*m, N*mm; prismatic m, mm, um and N, mN, kN; any
-of them with a scale, K*UNIT (``bench.header_units.factor_of``).  What was converted is kept
-in ``Record.reading['units']`` for the report."""
+ns; revolute rad, deg, rev and N*m, mN*m, kN*m, N*mm; prismatic m, mm, um and N, mN, kN; the
+usual other spellings of each (``normalise``); any of them with a scale, K*UNIT
+(``factor_of``).  What was converted is kept in ``Record.reading['units']`` for the report."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
-from bench import header_units
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, Record
 
@@ -18,6 +18,34 @@ TORQUE_UNITS = {"revolute": {"N*m": 1.0, "mN*m": 1e-3, "kN*m": 1e3, "N*mm": 1e-3
                 "prismatic": {"N": 1.0, "mN": 1e-3, "kN": 1e3}}
 SI = {"revolute": ("rad", "N*m"), "prismatic": ("m", "N")}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+# {role: its table}; position and torque by joint type
+TABLES = {"t": TIME_UNITS, "q": POSITION_UNITS, "tau": TORQUE_UNITS}
+KNOWN = set(TIME_UNITS).union(*POSITION_UNITS.values(), *TORQUE_UNITS.values())
+# how units are written, to the tables' spelling
+ALIASES = {"sec": "s", "second": "s", "seconds": "s", "msec": "ms", "µs": "us", "usec": "us",
+           "°": "deg", "degree": "deg", "degrees": "deg", "radian": "rad", "radians": "rad",
+           "revolutions": "rev", "Nm": "N*m", "N.m": "N*m", "mNm": "mN*m", "kNm": "kN*m",
+           "Nmm": "N*mm", "µm": "um"}
+_SCALED = re.compile(r"^([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\*(.+)$")
+
+
+def normalise(unit: str) -> str:
+    u = unit.strip().replace(" ", "").replace("·", "*")
+    return ALIASES.get(u, u)
+
+
+def factor_of(unit: str, known: dict) -> tuple[float, str] | None:
+    """(factor to SI, unit as spelled) for a unit of ``known`` ({unit: factor}), also written
+    with a scale: "0.12*N*m" (a current in A with a torque constant of 0.12 N·m/A),
+    "0.0015339808*rad" (encoder counts, 4096 a turn), "25*ns" (a 40 MHz tick); None if not
+    a unit of ``known``."""
+    u = normalise(unit)
+    if u in known:
+        return known[u], u
+    m = _SCALED.match(u)
+    if m and normalise(m.group(2)) in known and float(m.group(1)) > 0:
+        return float(m.group(1)) * known[normalise(m.group(2))], u
+    return None
 
 
 def to_si(rec: Record, name: str) -> None:
@@ -27,7 +55,7 @@ def to_si(rec: Record, name: str) -> None:
     conv = {}
     unit = rec.meta.get("time_unit")
     if unit is not None:
-        found = header_units.factor_of(str(unit), TIME_UNITS)
+        found = factor_of(str(unit), TIME_UNITS)
         if found is None:
             raise InputError(f"{name}: time_unit {rec.meta['time_unit']!r} is not one of {', '.join(TIME_UNITS)} "
                              f"(or K*UNIT, e.g. 25*ns)")
@@ -42,7 +70,7 @@ def to_si(rec: Record, name: str) -> None:
         if unit is None:
             continue
         known = table[jt]
-        found = header_units.factor_of(str(unit), known)
+        found = factor_of(str(unit), known)
         if found is None:
             raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
                              f"(known: {', '.join(known)}, or K*UNIT such as 0.12*{SI[jt][1 if role == 'torque' else 0]})")

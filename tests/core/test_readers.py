@@ -376,6 +376,9 @@ def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp
                          "--position-unit", "rad")
     assert overridden["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
     assert any("position_unit 'rad' was given and is used" in w for w in overridden["warnings"])
+    (tmp_path / "badjt.csv").write_text(meta + "t,tau [A],q\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows))
+    out = run("analyze", tmp_path / "badjt.csv", "--joint-type", "rotary", "--no-diagnosis")
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "joint_type" in out.stderr, out.stderr
     slider = read_record(b"t,F [N],x [mm]\n" + "\n".join(f"{a:.6f},{b:.9g},{c * 1e3:.9g}" for a, b, c in rows).encode(),
                          name="stage.csv", columns="t=t,tau=F [N],q=x [mm]", inertia=spec.inertia)
     assert slider.meta["joint_type"] == "prismatic" and np.allclose(slider.q, rec.q, atol=1e-9)
