@@ -186,6 +186,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             ident.warnings.insert(0, REVERSED_WARNING)
         for role, why in rec.reading.get("header_units", {}).get("ignored", {}).items():
             ident.warnings.insert(0, f"the header states the {role} column's unit: {why}")
+        if rec.reading.get("text_row_skipped"):
+            ident.warnings.insert(0, TEXT_ROW_WARNING)
         if rec.reading.get("glitches"):
             ident.warnings.insert(0, GLITCH_WARNING.format(n=rec.reading["glitches"]))
         if rec.reading.get("time_counter"):
@@ -216,6 +218,8 @@ UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the recor
 
 GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and back (encoder or "
                   "logger glitches): their positions were interpolated from the samples around them")
+TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
+                    "skipped as a description row")
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
 

@@ -40,9 +40,16 @@ def unit_in_name(name: str) -> str | None:
     return split_unit(name)[1]
 
 
+def is_unit(text: str) -> bool:
+    """Whether ``text`` is a unit this tool converts, bare or with a scale ("K*UNIT")."""
+    return factor_of(text, dict.fromkeys(KNOWN, 1.0)) is not None
+
+
 def split_units_row(header: list[str], second: list[str]) -> dict | None:
-    """{column: unit} when the line under a named header holds units, not numbers: every field
-    non-numeric and none empty (a data row with a lost cell has numbers beside it)."""
+    """What the line under a named header is: None for data (a number in it, or an empty
+    field: a data row with a lost cell has numbers beside it); else {column: unit}, empty
+    when no field is a unit we know -- a row of descriptions ("Joint angle", "Motor torque"),
+    skipped like a units row without each word being warned as a unit it is not."""
     if len(second) != len(header) or not all(f.strip() for f in second):
         return None
     for f in second:
@@ -51,7 +58,8 @@ def split_units_row(header: list[str], second: list[str]) -> dict | None:
             return None
         except ValueError:
             pass
-    return {h: f.strip().strip('"').strip("[]()") for h, f in zip(header, second)}
+    units = {h: f.strip().strip('"').strip("[]()") for h, f in zip(header, second)}
+    return units if any(is_unit(u) for u in units.values()) else {}
 
 
 def apply(rec) -> None:

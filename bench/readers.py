@@ -68,7 +68,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
     fmt = _format(raw, name)
     mapping = parse_columns(columns) if isinstance(columns, str) or columns is None else dict(columns)
-    units_row: dict = {}
+    units_row: dict | None = None
     if fmt == "parquet":
         table, meta = _parquet(raw, name)
         trace = _trace_record(table, mapping, name)
@@ -78,6 +78,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         table, meta = _mat(raw, name)
     else:
         table, meta, fmt, units_row = _text(raw, name)
+    text_row = units_row == {}          # a row of descriptions under the header, skipped
+    units_row = units_row or {}
     mapping = mapping or header_units.default_mapping(_names(table), ROLES, REQUIRED)
     data, stated = {}, {}
     clock, ticks = False, None
@@ -101,6 +103,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["clock_time"] = True
     if stated:
         rec.reading["stated_units"] = stated
+    if text_row:
+        rec.reading["text_row_skipped"] = True
     return _finish(rec, name, fmt, opts, span)
 
 
@@ -191,7 +195,7 @@ def _text(raw: bytes, name: str):
     second = first if headerless else _line(body, 1)
     units_row = None if headerless else header_units.split_units_row(
         header, [f for f in second.split(sep)] if delim else second.split())
-    if units_row:    # a data-acquisition export's units under the names: read, then skipped
+    if units_row is not None:  # a data-acquisition export's units (or descriptions) under the names
         at = body.find("\n") + 1
         nxt = body.find("\n", at)
         body = body[:at] + (body[nxt + 1:] if nxt >= 0 else "")
@@ -211,7 +215,7 @@ def _text(raw: bytes, name: str):
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
-    return table, meta, fmt, units_row or {}
+    return table, meta, fmt, units_row
 
 
 _META = re.compile(r"^[ \t]*(#.*)$\n?", re.M)

@@ -362,6 +362,12 @@ def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp
     for doc in (in_names, units_row):
         assert doc["units"]["from_header"] == {"t": "ms", "tau": "N*m", "q": "deg"}
         assert doc["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
+    # a row of descriptions under the names is skipped and said once, not read as units
+    described = analyse("words.csv", "time,torque,angle\nTime since start,Motor torque,Joint angle\n" + "\n".join(
+        f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows), "--columns", "t=time,tau=torque,q=angle")
+    assert described["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
+    assert "description row" in described["warnings"][0]
+    assert not any("is not a" in w for w in described["warnings"]) and "from_header" not in described["units"]
     amps = analyse("amps.csv", "t,tau [A],q [rad]\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows))
     assert amps["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
     assert any("'A' is not a torque or force unit" in w and "torque-unit K*N*m" in w for w in amps["warnings"])
