@@ -104,7 +104,7 @@ class Analysis:
         resampling = dict(r.get("resampling", {}))
         if "empty_rows" in r:    # rows with an empty, NaN or infinite cell (bench.readers)
             resampling["empty_rows_dropped"] = r["empty_rows"]
-        if "glitches" in r:      # position samples off their neighbours (bench.glitches)
+        if r.get("glitches"):    # position samples off their neighbours (bench.glitches)
             resampling["position_glitches_mended"] = r["glitches"]
         if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
             resampling["segments"] = [dict(s, scored=bool(mask[a:b].any()))
@@ -168,6 +168,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
         for n in add:
             get(n)
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
+    if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
+        rec = _glitches_mended(rec)
     rec = on_grid(rec, name)                   # a logger's timestamps, as a file would be read
     if cutoff is not None:
         in_range(cutoff, "cutoff", 0.0, 0.5 / max(rec.dt, 1e-12), lo_open=True)
@@ -222,6 +224,15 @@ TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor 
                     "skipped as a description row")
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
+
+
+def _glitches_mended(rec: Record) -> Record:
+    """``rec`` with its position glitches mended (bench.glitches), the caller's record untouched:
+    a real drive's encoder can glitch during a calibration as well as in a user's log."""
+    from bench.glitches import mend_glitches
+    out = replace(rec, q=np.array(rec.q, dtype=float), meta=dict(rec.meta), reading=dict(rec.reading))
+    out.reading["glitches"] = mend_glitches(out)
+    return out
 
 
 def _torque_reversed(rec: Record) -> Record:

@@ -127,9 +127,7 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
     # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)
-    glitches = mend_glitches(rec)      # an encoder's bad samples, once whole turns are out
-    if glitches:
-        rec.reading["glitches"] = glitches
+    rec.reading["glitches"] = mend_glitches(rec)   # an encoder's bad samples, once whole turns are out
     # for --residuals at the record's own times (converted back to the file's unit there)
     rec.reading["raw_t"] = np.array(rec.t, dtype=float)
     rec = regularise(rec, name)

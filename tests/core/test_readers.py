@@ -415,6 +415,24 @@ def test_position_glitches_are_mended_and_said(joint, condition, seed):
     assert max(rel_errors(doc, PRESETS[joint]).values()) < 0.05, rel_errors(doc, PRESETS[joint])
 
 
+def test_position_glitches_in_a_record_built_in_memory_are_mended_too():
+    """A drive's trace during a calibration reaches the analysis as a Record, not a file: its
+    encoder glitches are mended the same way, and the caller's record is left as it was."""
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(PRESETS["j4"], "clean", 5352)
+    rng = np.random.default_rng(5352)
+    at = rng.choice(np.arange(200, len(rec.t) - 200), 6, replace=False)
+    rec.q = rec.q.copy()
+    rec.q[at] += 0.01 * np.ptp(rec.q) * rng.choice([-1, 1], len(at))
+    before = rec.q.copy()
+    doc = analyze_record(rec).report()
+    assert np.array_equal(rec.q, before) and "glitches" not in rec.reading
+    assert doc["resampling"]["position_glitches_mended"] == 6
+    assert "jumped away from their neighbours" in doc["warnings"][0]
+    assert doc["final"]["effects"] == [] and not doc["unexplained"]["structured"], doc["diagnosis"][:2]
+    assert max(rel_errors(doc, PRESETS["j4"]).values()) < 0.05, rel_errors(doc, PRESETS["j4"])
+
+
 def test_ringing_contacts_and_coarse_encoders_are_not_glitches():
     """What must not be mended: a gear's contact ringing at 200 Hz, lightly damped, seen by
     the motor encoder (5 samples a period), and a coarse encoder's counts at rest."""
