@@ -101,6 +101,14 @@ def _robot_log(spec, rng):
                      process_noise=rng.uniform(0.01, 0.03) * _fc(spec), process_noise_colour="white")
 
 
+def _robot_log_slow(spec, rng):
+    # the same arm published at 100-125 Hz (ROS joint_states, a UR's 125 Hz RTDE stream)
+    step = rng.uniform(0.008, 0.010)
+    logger = Logger(step=step, min_step=0.75 * step, max_step=1.6 * step, drop=rng.uniform(0.005, 0.03),
+                    gaps_per_minute=rng.uniform(1.0, 3.0))
+    return _robot_log(spec, rng).with_(logger=logger)
+
+
 def _robot_log_offset(spec, rng):
     # the arm: the published friction carries a constant offset near Fc / 4
     rec = _robot_log(spec, rng)
@@ -127,6 +135,7 @@ EXTRA_CONDITIONS: dict[str, Condition] = dict((
     _c("1/f process noise", "a disturbance torque with a 1/f spectrum up to 0.2-2 s", _pink),
     _c("500 Hz", "control and record at 500 Hz", _rate(500.0)),
     _c("robot joint log", "PD tracking, friction column, PC logger, sensor and process noise", _robot_log),
+    _c("robot joint log at 100-125 Hz", "the robot joint log published at 100-125 Hz", _robot_log_slow),
     _c("robot joint log with offset", "the same with a constant offset of 20-30 % of Fc in the friction",
        _robot_log_offset),
 ))

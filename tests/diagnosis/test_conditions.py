@@ -51,11 +51,11 @@ def test_known_gap_nothing_to_explain(condition, joint):
     assert len(_misses(condition, [joint], seeds=5)) <= 0
 
 
-def _misses(condition, joints, seeds=20):
+def _misses(condition, joints, seeds=20, first_seed=None):
     misses = []
     for i in range(seeds):
         spec = PRESETS[joints[i % len(joints)]]
-        seed = 6000 + 100 * CONDITION_NAMES.index(condition) + i
+        seed = (6000 + 100 * CONDITION_NAMES.index(condition) if first_seed is None else first_seed) + i
         rec, _ = make_record(spec, condition, seed)
         doc = analyze_record(rec).report()
         significant = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
@@ -63,6 +63,24 @@ def _misses(condition, joints, seeds=20):
             misses.append((spec.name, seed, significant, doc["unexplained"]["evidence"][:120],
                            {k: doc["parameters"][k] for k in ("Fc", "Fs", "sigma2")}))
     return misses
+
+
+SLOW_LOG = "robot joint log at 100-125 Hz"
+
+
+def test_robot_logs_at_100_to_125_hz_nothing_to_explain_in_19_of_20():
+    """Joint states as robots publish them at 100-125 Hz (ROS, a UR's RTDE stream): PD motion,
+    a friction column, a jittered logger.  Probed before this test on tuning seeds 1851-1854 at
+    8 and 10 ms steps: nothing credited in 24 of 24; the rotary motor's Fc is off but reported
+    not identifiable there, which `_within` accepts as honest."""
+    misses = _misses(SLOW_LOG, JOINTS, first_seed=5360)
+    assert len(misses) <= 1, misses
+
+
+@pytest.mark.parametrize("effect, joint, seed", [("cogging", "j4", 5380), ("position_dependent_friction", "j1", 5381),
+                                                 ("thermal_drift", "j3", 5382), ("direction_asymmetry", "linear", 5383)])
+def test_library_effect_is_named_first_in_a_slow_robot_log(effect, joint, seed):
+    _named_first(PRESETS[joint], SLOW_LOG, effect, seed)
 
 
 # every library effect under every condition the analysis handles, three effects per
@@ -105,7 +123,10 @@ def test_library_effect_is_named_first_under_condition(condition, effect, joint)
         spec = PRESETS["linear"]
     if effect == "torque_lag" and spec.name == "rotary":
         spec = PRESETS["j3"]
-    seed = 7000 + 20 * CONDITION_NAMES.index(condition) + EFFECT_NAMES.index(effect)
+    _named_first(spec, condition, effect, 7000 + 20 * CONDITION_NAMES.index(condition) + EFFECT_NAMES.index(effect))
+
+
+def _named_first(spec, condition, effect, seed):
     texts = random_effects(spec, [effect], seed)
     rec, _ = make_record(spec, condition, seed, effects=texts)
     doc = analyze_record(rec).report()
