@@ -130,6 +130,7 @@ class Diagnosis:
     cv: CrossValidation | None = None   # the held-out motion segments everything was scored on
     final_predictability: dict | None = None   # of the final residual, once assessed
     replay_rms: float = 0.0        # what a perfect model leaves on this record (bench.perfect_model)
+    chain_mse: float = 0.0         # the same, held out and squared (``Context.chain_mse``)
     noise_floor: float = 0.0       # the record's measurement-noise floor (bench.unexplained)
     start: Model | None = None     # the baseline (LuGre alone)
     # the same diagnosis with friction beyond the gear, when that pass ran and was not kept
@@ -168,9 +169,10 @@ class Evaluated:
     rms: float
 
 
-def _evaluate(data: FitData, model: Model, cv: CrossValidation, meta: dict, inertia: float) -> Evaluated:
+def _evaluate(data: FitData, model: Model, cv: CrossValidation, meta: dict, inertia: float,
+              chain_mse: float = 0.0) -> Evaluated:
     base = predict(data, model.values, model.appliers)
-    ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia)
+    ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia, chain_mse=chain_mse)
     J = model_columns(data, model, base, cv.idx)
     r = ctx.residual[cv.idx]
     sse = cv.sse(J, r)
@@ -235,6 +237,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
     record replayed through a perfect model; an effect must explain clearly more of the
     record than of it (``ARTIFACT_RATIO``)."""
     replay = _Replay(twin, baseline, meta, inertia) if twin is not None and auto and not add else None
+    chain = replay.cur.rms ** 2 if replay is not None else 0.0
     artifact: dict[str, float] = {}
     forced = [get(n) for n in (add or [])]
     if len({e.name for e in forced}) != len(forced):
@@ -242,7 +245,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
     model = start = Model(values={k: baseline.values[k] for k in LUGRE_KEYS},
                           params=[Param(k, baseline.values[k]) for k in LUGRE_KEYS], result=baseline)
     cv = CrossValidation(data)
-    cur = _evaluate(data, model, cv, meta, inertia)
+    cur = _evaluate(data, model, cv, meta, inertia, chain)
     baseline_rms = cur.rms
     for e in forced:
         if not e.applicable(cur.ctx):
@@ -287,7 +290,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
             if not forced_step(sc, add) and not effect.credible(new_model.values, cur.ctx):
                 rejected.add(sc.effect)
                 continue
-            ev = _evaluate(data, new_model, cv, meta, inertia)
+            ev = _evaluate(data, new_model, cv, meta, inertia, chain)
             if not forced_step(sc, add) and not effect.holds(new_model.values, ev.ctx):
                 rejected.add(sc.effect)
                 continue
@@ -295,7 +298,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 # nested control: the refit also re-optimises LuGre (and the effects already
                 # in); refit without the new effect from those values, and credit the effect
                 # only with what it explains beyond that
-                control = _evaluate(data, _refit_without(data, model, new_model), cv, meta, inertia)
+                control = _evaluate(data, _refit_without(data, model, new_model), cv, meta, inertia, chain)
                 if control.rms < cur.rms:
                     improved_base = control
                 if ev.rms ** 2 > (1.0 - MIN_EXPLAINED) * min(control.rms, cur.rms) ** 2:
@@ -321,10 +324,10 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         contexts.append(ev.ctx)
         cur = ev
     if len([s for s in steps if not s.forced]) > 1:
-        cur = _backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms)
+        cur = _backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms, chain)
         contexts.append(cur.ctx)
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
-                     remaining=screens, contexts=contexts, cv=cv, start=start)
+                     remaining=screens, contexts=contexts, cv=cv, start=start, chain_mse=chain)
 
 
 def _without(data: FitData, model: Model, name: str) -> Model:
@@ -337,12 +340,13 @@ def _without(data: FitData, model: Model, name: str) -> Model:
     return _refit_without(data, base, base)
 
 
-def _backward_pass(data, cur: Evaluated, steps: list[Step], cv, meta, inertia, baseline_rms) -> Evaluated:
+def _backward_pass(data, cur: Evaluated, steps: list[Step], cv, meta, inertia, baseline_rms,
+                   chain: float = 0.0) -> Evaluated:
     """Forward selection can add an effect that a later one makes unnecessary (an inertia
     error mimicking part of a Stribeck shape, say).  Try removing each automatically added
     effect; drop it when it no longer explains MIN_EXPLAINED of the held-out variance."""
     for step in [s for s in steps if not s.forced]:
-        trial = _evaluate(data, _without(data, cur.model, step.effect), cv, meta, inertia)
+        trial = _evaluate(data, _without(data, cur.model, step.effect), cv, meta, inertia, chain)
         if cur.rms ** 2 > (1.0 - MIN_EXPLAINED) * trial.rms ** 2:
             step.removed = True
             step.evidence += f" — but not needed once {', '.join(e.name for e in trial.model.effects)} " \
@@ -399,12 +403,12 @@ def drop_absorbers(data: FitData, diag: Diagnosis, meta: dict, inertia: float, l
         if not suspects:
             return diag
         step = suspects[-1]
-        trial = _evaluate(data, _without(data, diag.model, step.effect), diag.cv, meta, inertia)
+        trial = _evaluate(data, _without(data, diag.model, step.effect), diag.cv, meta, inertia, diag.chain_mse)
         if not trial.model.effects and diag.start is not None:
             # nothing credited: LuGre alone, as the baseline had it unless the polish without
             # the effects did better (a load-side spring on j3, tuning seed 1529: the polish
             # from a dropped Stribeck exponent's values left 12.6 where the baseline had 8.7)
-            alone = _evaluate(data, diag.start, diag.cv, meta, inertia)
+            alone = _evaluate(data, diag.start, diag.cv, meta, inertia, diag.chain_mse)
             trial = alone if alone.rms < trial.rms else trial
         step.removed = True
         own = sorted(top & set(get(step.effect).signals))

@@ -20,6 +20,8 @@ POSITION_ADDS = 0.015
 # torque constants an inertia error was tried on (1100-1102) 0.094-0.197 on the linear stage
 # and j1-j4 (0.03 on one j4 record; ~0 on the rotary motor, whose friction hides it).
 CUBIC_ADDS = 0.05
+# (Both counted beyond the chain's own error, ``signal_adds``: on those 1 kHz records a perfect
+# model's replay leaves ~0 of the residual, so the measured ranges stand.)
 
 
 class InertiaError(Effect):
