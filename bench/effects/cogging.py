@@ -24,7 +24,7 @@ class Cogging(PositionSeries):
         # harmonics over a single period make any smooth function of position -- a saturating
         # torque constant on the inertia-dominated linear stage under a sine (tau^3 ~ -q^3, the
         # same in both directions) logged at 125 Hz was "cogging" of pitch 105 mm over 124 mm,
-        # with "nothing left", on 3 of 3 tuning seeds (1011-1013).  Injected cogging has 4-20
+        # with "nothing left", on 5 of 5 tuning seeds (1011-1015).  Injected cogging has 4-20
         # periods in the travel, a gear's mesh hundreds.
         return super().credible(values, ctx) and 2.0 * self.pitch(values) <= float(np.ptp(ctx.data.c.q))
 
