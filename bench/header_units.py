@@ -15,10 +15,11 @@ from bench.units import KNOWN, SI, TABLES, factor_of, normalise
 
 # "name [unit]", "name (unit)" or "name/unit" at the end of a column name
 _BRACKETED = re.compile(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$")
-_SLASHED = re.compile(r"^[A-Za-z_][\w .]*/\s*([A-Za-zµ°·*.]+)\s*$")
+_SLASHED = re.compile(r"^[A-Za-z_][\w .]*/\s*([\wµ°·*.+-]+)\s*$")
 
 KEYS = {"t": "time_unit", "q": "position_unit", "tau": "torque_unit"}
 ROLE_NAMES = {"t": "time", "q": "position", "tau": "torque or force"}
+_ANY_UNIT = dict.fromkeys(KNOWN, 1.0)     # for factor_of: is it a unit at all, scaled or not
 
 
 def split_unit(name: str) -> tuple[str, str | None]:
@@ -27,10 +28,10 @@ def split_unit(name: str) -> tuple[str, str | None]:
     when it looks like one (short, no blank: "[A]", "(counts)"), so that a unit we cannot
     convert is said."""
     m = _BRACKETED.search(name)
-    if m and (normalise(m.group(1)) in KNOWN or (len(m.group(1)) <= 6 and " " not in m.group(1))):
+    if m and (is_unit(m.group(1)) or (len(m.group(1)) <= 6 and " " not in m.group(1))):
         return name[:m.start(1)].rstrip(" [("), m.group(1).strip()
     m = _SLASHED.match(name)
-    if m and normalise(m.group(1)) in KNOWN:
+    if m and is_unit(m.group(1)):
         return name[:m.start(1)].rstrip(" /"), m.group(1).strip()
     return name, None
 
@@ -42,7 +43,7 @@ def unit_in_name(name: str) -> str | None:
 
 def is_unit(text: str) -> bool:
     """Whether ``text`` is a unit this tool converts, bare or with a scale ("K*UNIT")."""
-    return factor_of(text, dict.fromkeys(KNOWN, 1.0)) is not None
+    return factor_of(text, _ANY_UNIT) is not None
 
 
 def split_units_row(header: list[str], second: list[str]) -> dict | None:

@@ -378,6 +378,11 @@ def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp
         "--torque-unit", f"{kt}*N*m", "--position-unit", f"{2 * np.pi / per_turn!r}*rad", "--time-unit", "25*ns")
     assert scaled["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
     assert scaled["units"]["conversions"]["torque"]["factor"] == pytest.approx(kt)
+    # ... or in the header's names themselves, found without --columns
+    in_header = analyse("scaled_names.csv", f"t [25*ns],tau [{kt}*N*m],q/{2 * np.pi / per_turn!r}*rad\n" + "\n".join(
+        f"{round(a * 40e6)},{b / kt:.12g},{c * per_turn / (2 * np.pi):.12g}" for a, b, c in rows))
+    assert in_header["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
+    assert in_header["units"]["from_header"] == {"t": "25*ns", "tau": f"{kt}*N*m", "q": f"{2 * np.pi / per_turn!r}*rad"}
     overridden = analyse("over.csv", "t,tau,q [deg]\n" + "\n".join(f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows),
                          "--position-unit", "rad")
     assert overridden["parameters"] == pytest.approx(si["parameters"], rel=1e-9)
