@@ -273,9 +273,11 @@ def _diagnose(ident: Identification, rec: Record, add):
     twin, twin_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff)
     replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
     floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
+    # the effects see how the torque was read (held or sampled) as identification decided it
+    meta = dict(rec.meta, torque_hold=ident.fit.get("torque_hold", rec.meta.get("torque_hold", "auto")))
 
     def run():
-        diag = diagnose(data, ident.result, rec.meta, ident.inertia, add=add, auto=not add, twin=twin)
+        diag = diagnose(data, ident.result, meta, ident.inertia, add=add, auto=not add, twin=twin)
         diag.replay_rms, diag.noise_floor = replay_rms, floor
         if add:
             return diag
@@ -288,7 +290,7 @@ def _diagnose(ident: Identification, rec: Record, add):
                 return (["time"] + [k for k in p["relies_on"] if k != "time"],
                         max(p["structured_rms"], p["level"]["changing_rms"]))
             return p["relies_on"], p["structured_rms"]
-        return drop_absorbers(ident.data, diag, rec.meta, ident.inertia, leftover)
+        return drop_absorbers(ident.data, diag, meta, ident.inertia, leftover)
 
     diag = run()
     # already with friction beyond the gear (the wide probe's retry), a second pass would

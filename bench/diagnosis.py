@@ -17,6 +17,7 @@ import numpy as np
 from bench.effects import EFFECTS, Context, Effect, get
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
+from bench.identify import IDENTIFIABLE_REL_SE
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
 from bench.signals import effective_sample_fraction
@@ -229,6 +230,23 @@ class _Replay:
         return max(sc.mse_before - sc.mse_after, 0.0) if sc else 0.0
 
 
+# the levels a technician compensates with; alpha, sigma0 and sigma1 are often barely
+# determined by a record and an effect may well trade with them
+LEVELS = ("Fc", "Fs", "sigma2")
+
+
+def levels_lost(before: FitResult | None, after: FitResult | None) -> list[str]:
+    """The friction levels ``before`` determined that ``after`` no longer does (standard error
+    beyond ``IDENTIFIABLE_REL_SE`` of the value): the new parameter trades off against them."""
+    if before is None or after is None:
+        return []
+
+    def known(res, k):
+        se = res.stderr.get(k)
+        return se is not None and se <= IDENTIFIABLE_REL_SE * abs(res.values[k])
+    return [k for k in LEVELS if known(before, k) and not known(after, k)]
+
+
 def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
              add: list[str] | None = None, max_steps: int = MAX_STEPS, auto: bool = True,
              twin: FitData | None = None) -> Diagnosis:
@@ -288,6 +306,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
             effect = get(sc.effect)
             new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx)
             if not forced_step(sc, add) and not effect.credible(new_model.values, cur.ctx):
+                rejected.add(sc.effect)
+                continue
+            if not forced_step(sc, add) and effect.reshapes_levels and levels_lost(model.result, new_model.result):
                 rejected.add(sc.effect)
                 continue
             ev = _evaluate(data, new_model, cv, meta, inertia, chain)

@@ -105,6 +105,9 @@ class Effect:
     # final model leaves still depends on them, the effect only absorbed part of a structure
     # it does not explain, and is not credited
     signals: tuple[str, ...] = ()
+    # the effect reshapes the sliding map that Fc, Fs and sigma2 describe: credited only if its
+    # refit leaves those as well determined as they were (``bench.diagnosis.levels_lost``)
+    reshapes_levels: bool = False
 
     def applicable(self, ctx: Context) -> bool:
         return True

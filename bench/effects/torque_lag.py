@@ -16,6 +16,13 @@ MAX_LAG = 0.2      # s: beyond this a "lag" is a different experiment
 # constant the lag was tried on (1100-1102) 0.128-0.32 on the linear stage, j1 and j2 (0.04
 # and 0.007 on j4, where the lag was not credited).
 CUBIC_ADDS = 0.06
+# A torque column sampled rather than held (a logger's record, ``torque_hold: sample``) reads
+# each of the drive's held commands at some instant of its control period, and a staircase
+# held for a period P moves the joint like the smooth torque P/2 later: 0.5 ms at 1 kHz, 1 ms
+# at 500 Hz.  The log cannot say at which rate the drive ran, so a lag within that is not
+# named.  Tuning seeds 1972, 1984-1991 (2026-11-27): clean linear-stage PD records logged at
+# 8 ms were given a lag of 0.53-0.60 ms in 3 of 9; the library's lags are 2-8 ms.
+HELD_LAG = 1e-3
 
 
 class TorqueLag(Effect):
@@ -34,8 +41,12 @@ class TorqueLag(Effect):
         stage's travel was taken for a lag of -2.2 to -3.2 ms under one sine (test seeds 5942,
         5943, 5946); the library's lags are 2-7 ms the other way.  In a friction-torque record
         (inertia 0) a sensor's filter can delay the reading instead, so there either sign is
-        physics."""
-        return values["torque_lag"] > 0 or ctx.inertia == 0
+        physics.  A sampled torque column cannot place a lag below a drive's hold
+        (``HELD_LAG``)."""
+        lag = values["torque_lag"]
+        if ctx.inertia > 0 and ctx.meta.get("torque_hold") == "sample" and lag < HELD_LAG:
+            return False
+        return lag > 0 or ctx.inertia == 0
 
     def holds(self, values, ctx):
         """A lag is linear in the torque, tau(t) - tau(t - lag) ~ lag dtau/dt: with its term in,

@@ -95,6 +95,35 @@ def test_an_inertia_error_on_the_linear_stage_logged_at_250_hz_in_closed_loop_is
     _named_first(PRESETS["linear"], Recording(excitation="pd", logger=logger), "inertia_error", seed)
 
 
+def _pd_logged_at_8_ms():
+    from virtual_drives.recording import Logger, Recording
+    return Recording(excitation="pd", logger=Logger(step=0.008, min_step=0.006, max_step=0.0128, drop=0.01,
+                                                    gaps_per_minute=1.0))
+
+
+def test_a_clean_linear_stage_logged_at_125_hz_in_closed_loop_gets_no_torque_lag():
+    """A drive holds each command for its control period, and a logger samples the staircase:
+    the joint moves as if the smooth torque came half a period late.  On tuning seeds 3 of 9
+    clean records were given a lag of 0.53-0.60 ms; on these fresh seeds one of eight was
+    (5414) before ``torque_lag.HELD_LAG``."""
+    spec = PRESETS["linear"]
+    credited = []
+    for seed in range(5410, 5418):
+        rec, _ = make_record(spec, _pd_logged_at_8_ms(), seed)
+        doc = analyze_record(rec).report()
+        credited += [(seed, d["effect"]) for d in doc["diagnosis"] if d["significant"]]
+    assert not credited
+
+
+@pytest.mark.parametrize("seed", range(5420, 5432))
+def test_an_inertia_error_on_the_linear_stage_logged_at_125_hz_comes_alone(seed):
+    """At 8 ms the inertia error's refit leaves Fc some 20 % low, and a Stribeck exponent
+    fitted beside it took Fc to a quarter of the truth, undetermined, and was credited: on
+    tuning seeds 4 of 5, on these fresh seeds 2 of 12 (5428, 5431) before an exponent had to
+    leave the friction levels as well determined as it found them."""
+    _named_first(PRESETS["linear"], _pd_logged_at_8_ms(), "inertia_error", seed)
+
+
 # every library effect under every condition the analysis handles, three effects per
 # condition in rotation (so each effect meets about two conditions and a joint each time)
 EFFECT_NAMES = list(EFFECTS)
