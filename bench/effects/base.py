@@ -94,6 +94,23 @@ def one_level_along_travel(ctx: "Context", where: np.ndarray | None = None) -> b
     return abs(lo - hi) <= HALVES_AGREE * max(abs(lo), abs(hi))
 
 
+def column_lag_twin(lag: float, values: dict, of: str) -> str:
+    """On a friction-torque column a lag d of the reading, d dF/dt, is sigma2 d q'' while the
+    joint slides (an inertia term left in the column) and, in presliding, where dF/dt ~
+    sigma0 dz/dt, sigma1 lowered by sigma0 d: to first order the two effects are one, and only
+    LuGre's sigma1 tells them apart.  Tuning seeds 1924 and 1929 (j1, 2026-11-27): the lag's
+    and the inertia's refits differed in sigma1 by 6130 and 2170 where sigma0 d gives 6060 and
+    2090, and the wrong one was named in 3 of 4 j1 records.  Said, so the name is not taken
+    for a measurement.  ``of``: the effect named ("lag" or "inertia"); the text gives the other."""
+    d, M = lag, values["sigma2"] * lag
+    twin = (f"an inertia term M ~ {M:.4g} left in the column" if of == "lag" else
+            f"a {abs(d) * 1e3:.3g} ms {'lag' if d > 0 else 'lead'} of the reading")
+    return (f"on a friction-torque record {twin} looks the same (a lag d reads as an inertia "
+            f"sigma2 d while the joint slides and as presliding damping sigma0 d), so the two cannot "
+            f"be told apart here: check the arm's inertia model and the torque sensor's filter, or "
+            f"record the applied torque (inertia > 0)")
+
+
 class Effect:
     name: str = ""
     summary: str = ""

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
+from bench.effects.base import (Context, Effect, check_known, column_lag_twin, explained_text, number,
+                                signal_adds)
 from bench.errors import InputError
 
 # Share of what an inertia error's fitted model leaves without its term that position still
@@ -71,7 +72,8 @@ class InertiaError(Effect):
         M, dM = ctx.inertia, values["inertia_error"]
         if M == 0:
             return (f"residual is proportional to acceleration: the friction column still carries an "
-                    f"inertia term M ~ {dM:.4g}; {explained_text(explained)}")
+                    f"inertia term M ~ {dM:.4g}; {explained_text(explained)}; "
+                    + column_lag_twin(dM / values["sigma2"], values, "inertia"))
         return (f"residual is proportional to acceleration: the declared inertia {M:.4g} is "
                 f"{abs(dM / M):.0%} too {'low' if dM > 0 else 'high'} (M ~ {M + dM:.4g}); "
                 f"{explained_text(explained)}")

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.effects.base import Context, Effect, check_known, explained_text, number, signal_adds
+from bench.effects.base import (Context, Effect, check_known, column_lag_twin, explained_text, number,
+                                signal_adds)
 from bench.errors import InputError
 
 MAX_LAG = 0.2      # s: beyond this a "lag" is a different experiment
@@ -65,9 +66,10 @@ class TorqueLag(Effect):
 
     def evidence(self, values, explained, ctx):
         lag = values["torque_lag"]
-        return (f"residual follows the rate of change of the torque: the joint feels the torque "
+        text = (f"residual follows the rate of change of the torque: the joint feels the torque "
                 f"{abs(lag) * 1e3:.3g} ms {'after' if lag > 0 else 'before'} the record says it was "
                 f"applied (current loop, command delay); {explained_text(explained)}")
+        return text + ("; " + column_lag_twin(lag, values, "lag") if ctx.inertia == 0 else "")
 
     def inject(self, kw, ev, spec):
         check_known(kw, ("delay",), self.name)

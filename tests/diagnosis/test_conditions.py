@@ -124,6 +124,28 @@ def test_an_inertia_error_on_the_linear_stage_logged_at_125_hz_comes_alone(seed)
     _named_first(PRESETS["linear"], _pd_logged_at_8_ms(), "inertia_error", seed)
 
 
+@pytest.mark.parametrize("effect, joint, seed", [("inertia_error", "j1", 5440), ("torque_lag", "j1", 5441),
+                                                 ("inertia_error", "j2", 5442), ("torque_lag", "j2", 5443)])
+def test_on_a_friction_column_an_inertia_term_and_a_lag_are_one_measurement(effect, joint, seed):
+    """A lag d of a friction reading is sigma2 d q'' while sliding and sigma1 - sigma0 d in
+    presliding: to first order an inertia term left in the column.  Whichever of the two is
+    named (j1's were swapped on 3 of 4 tuning records), it must measure the truth through the
+    other, and the evidence must say the two cannot be told apart."""
+    spec = PRESETS[joint]
+    texts = random_effects(spec, [effect], seed)
+    rec, truth = make_record(spec, "robot joint log", seed, effects=texts)
+    doc = analyze_record(rec).report()
+    top, p = doc["diagnosis"][0], doc["final"]["parameters"]
+    assert top["significant"] and doc["final"]["effects"] == [top["effect"]], doc["diagnosis"][:2]
+    assert "cannot be told apart" in top["evidence"], top["evidence"]
+    inertia_term = p["inertia_error"] if top["effect"] == "inertia_error" else p["sigma2"] * p["torque_lag"]
+    if effect == "inertia_error":
+        want = spec.inertia - truth.declared_inertia
+    else:
+        want = p["sigma2"] * truth.torque_lag
+    assert inertia_term == pytest.approx(want, rel=0.15), (texts, top["evidence"])
+
+
 # every library effect under every condition the analysis handles, three effects per
 # condition in rotation (so each effect meets about two conditions and a joint each time)
 EFFECT_NAMES = list(EFFECTS)
