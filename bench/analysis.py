@@ -19,7 +19,7 @@ from bench.effects.joint_flexibility import searched_frequencies
 from bench.effects.periodic import PositionSeries
 from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
-from bench.identify import IDENTIFIABLE_REL_SE, Identification, identify
+from bench.identify import Identification, identify, is_identifiable
 from bench.perfect_model import replay
 from bench.predictability import assess_predictability
 from bench.records import Record
@@ -52,9 +52,7 @@ class Analysis:
         if d.model.effects:  # the model with effects is the better estimate of LuGre too
             doc["parameters"] = lugre
             doc["uncertainty"] = {k: final.stderr.get(k) for k in LUGRE_KEYS}
-            doc["identifiable"] = {k: bool(final.stderr.get(k) is not None and
-                                           final.stderr[k] <= IDENTIFIABLE_REL_SE * abs(lugre[k]))
-                                   for k in LUGRE_KEYS}
+            doc["identifiable"] = {k: is_identifiable(lugre[k], final.stderr.get(k)) for k in LUGRE_KEYS}
             doc["fit"] = dict(doc["fit"], rms_error=final.rms, nrmse=final.nrmse,
                               fit_percent=100.0 * (1.0 - final.nrmse))
             # the LuGre-only fit's "not identifiable" warnings speak of the baseline: the
@@ -274,7 +272,7 @@ def _diagnose(ident: Identification, rec: Record, add):
     replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
     floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
     # the effects see how the torque was read (held or sampled) as identification decided it
-    meta = dict(rec.meta, torque_hold=ident.fit.get("torque_hold", rec.meta.get("torque_hold", "auto")))
+    meta = dict(rec.meta, torque_hold=ident.fit["torque_hold"])
 
     def run():
         diag = diagnose(data, ident.result, meta, ident.inertia, add=add, auto=not add, twin=twin)

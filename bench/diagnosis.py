@@ -17,7 +17,7 @@ import numpy as np
 from bench.effects import EFFECTS, Context, Effect, get
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
-from bench.identify import IDENTIFIABLE_REL_SE
+from bench.identify import is_identifiable
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
 from bench.signals import effective_sample_fraction
@@ -236,14 +236,13 @@ LEVELS = ("Fc", "Fs", "sigma2")
 
 
 def levels_lost(before: FitResult | None, after: FitResult | None) -> list[str]:
-    """The friction levels ``before`` determined that ``after`` no longer does (standard error
-    beyond ``IDENTIFIABLE_REL_SE`` of the value): the new parameter trades off against them."""
+    """The friction levels ``before`` determined that ``after`` no longer does (the report's
+    identifiable, ``bench.identify.is_identifiable``): the new parameter trades off against them."""
     if before is None or after is None:
         return []
 
     def known(res, k):
-        se = res.stderr.get(k)
-        return se is not None and se <= IDENTIFIABLE_REL_SE * abs(res.values[k])
+        return is_identifiable(res.values[k], res.stderr.get(k))
     return [k for k in LEVELS if known(before, k) and not known(after, k)]
 
 

@@ -27,6 +27,11 @@ from bench.signals import Conditioned, condition, zero_crossings
 IDENTIFIABLE_REL_SE = 0.15
 
 
+def is_identifiable(value: float, se: float | None) -> bool:
+    """The report's "identifiable": a standard error within ``IDENTIFIABLE_REL_SE`` of the value."""
+    return bool(se is not None and se <= IDENTIFIABLE_REL_SE * abs(value))
+
+
 @dataclass
 class Identification:
     params: LuGreParams
@@ -351,7 +356,7 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
     identifiable = {}
     for k in LUGRE_KEYS:
         se = res.stderr.get(k)
-        identifiable[k] = se is not None and se <= IDENTIFIABLE_REL_SE * abs(res.values[k])
+        identifiable[k] = is_identifiable(res.values[k], se)
     warnings = []
     if est["v_max"] * p.alpha < 1.5:
         identifiable["alpha"] = False

@@ -90,15 +90,14 @@ def test_an_inertia_error_on_the_linear_stage_logged_at_250_hz_in_closed_loop_is
     checks (nothing the acceleration's cube or the position adds) read them as physics; the mass
     error went unnamed ("unexplained") on 5 of 5 tuning seeds (1861-1890).  Counted beyond the
     perfect-model replay's error (``signal_adds``), it is named."""
-    from virtual_drives.recording import Logger, Recording
-    logger = Logger(step=0.004, min_step=0.003, max_step=0.0064, drop=0.01, gaps_per_minute=1.0)
-    _named_first(PRESETS["linear"], Recording(excitation="pd", logger=logger), "inertia_error", seed)
+    _named_first(PRESETS["linear"], _pd_logged(0.004), "inertia_error", seed)
 
 
-def _pd_logged_at_8_ms():
+def _pd_logged(step):
+    """PD tracking, the torque column the controller's output, on a PC logger of median ``step``."""
     from virtual_drives.recording import Logger, Recording
-    return Recording(excitation="pd", logger=Logger(step=0.008, min_step=0.006, max_step=0.0128, drop=0.01,
-                                                    gaps_per_minute=1.0))
+    return Recording(excitation="pd", logger=Logger(step=step, min_step=0.75 * step, max_step=1.6 * step,
+                                                    drop=0.01, gaps_per_minute=1.0))
 
 
 def test_a_clean_linear_stage_logged_at_125_hz_in_closed_loop_gets_no_torque_lag():
@@ -109,7 +108,7 @@ def test_a_clean_linear_stage_logged_at_125_hz_in_closed_loop_gets_no_torque_lag
     spec = PRESETS["linear"]
     credited = []
     for seed in range(5410, 5418):
-        rec, _ = make_record(spec, _pd_logged_at_8_ms(), seed)
+        rec, _ = make_record(spec, _pd_logged(0.008), seed)
         doc = analyze_record(rec).report()
         credited += [(seed, d["effect"]) for d in doc["diagnosis"] if d["significant"]]
     assert not credited
@@ -121,7 +120,7 @@ def test_an_inertia_error_on_the_linear_stage_logged_at_125_hz_comes_alone(seed)
     fitted beside it took Fc to a quarter of the truth, undetermined, and was credited: on
     tuning seeds 4 of 5, on these fresh seeds 2 of 12 (5428, 5431) before an exponent had to
     leave the friction levels as well determined as it found them."""
-    _named_first(PRESETS["linear"], _pd_logged_at_8_ms(), "inertia_error", seed)
+    _named_first(PRESETS["linear"], _pd_logged(0.008), "inertia_error", seed)
 
 
 @pytest.mark.parametrize("effect, joint, seed", [("inertia_error", "j1", 5440), ("torque_lag", "j1", 5441),
