@@ -194,6 +194,10 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             ident.warnings.insert(0, COUNTER_WARNING.format(**rec.reading["time_counter"]))
         if rec.reading.get("turns_unwrapped"):
             ident.warnings.insert(0, UNWRAPPED_WARNING.format(n=rec.reading["turns_unwrapped"]))
+        still = rec.reading.get("resampling", {}).get("standstills_cut")
+        if still:
+            ident.warnings.insert(0, STANDSTILL_WARNING.format(
+                n=len(still), s=rec.reading["resampling"]["standstill_time"]))
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
@@ -211,6 +215,9 @@ REVERSED_WARNING = ("the torque column counts positive against the position: at 
                     "the torque in the position's sense)")
 
 
+STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
+                      "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
+                      "motion after each scored from the joint's first sliding")
 UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the record: a single-turn "
                      "encoder, or an angle logged modulo 360 degrees); it was unwrapped before "
                      "the analysis")

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
+from bench import standstill
 from bench.errors import InputError
 from bench.records import Record
 
@@ -76,17 +77,26 @@ def regularise(rec: Record, name: str = "record") -> Record:
     }
     meta = dict(rec.meta)
     even = np.max(np.abs(d - h)) <= EVEN_TOL * h + 1e-9
-    if even:
+    pieces_raw = list(zip(np.concatenate(([0], gaps + 1)), np.concatenate((gaps + 1, [len(t)]))))
+    still, spans = standstill.standstills(t, cols["q"], pieces_raw)
+    if still:
+        report["standstills_cut"] = [{"t_start": float(t[a]), "t_end": float(t[b - 1])} for a, b in still]
+        # the time between the samples either side of each cut
+        report["standstill_time"] = float(sum(t[min(b, len(t) - 1)] - t[max(a - 1, 0)] - h for a, b in still))
+        pieces_raw = _without(pieces_raw, still)
+    if even and not still:
         out = Record(t=t, tau=cols["tau"], q=cols["q"], qd=cols.get("qd"), meta=meta)
         report["segments"] = [_segment(t)]
         out.reading = dict(rec.reading, resampling=report)
         return out
     # a command held until the next one is held on the grid too; a friction column (inertia 0)
-    # is a measurement, sampled
-    held = str(meta.get("torque_hold", "auto")).lower() == "zoh" and meta.get("inertia") not in (0, 0.0, "0")
+    # is a measurement, sampled.  An even record cut at standstills keeps its own samples (the
+    # grid falls on them), so its torques are what they were.
+    held = (not even and str(meta.get("torque_hold", "auto")).lower() == "zoh"
+            and meta.get("inertia") not in (0, 0.0, "0"))
     ranges: list[tuple[int, int]] = []
     dropped: list[dict] = []
-    for a, b in zip(np.concatenate(([0], gaps + 1)), np.concatenate((gaps + 1, [len(t)]))):
+    for a, b in pieces_raw:
         ts = t[a:b]
         if _grid_length(ts, h) < MIN_SEGMENT_SAMPLES or b - a < 2:
             dropped.append(_segment(ts))
@@ -100,14 +110,16 @@ def regularise(rec: Record, name: str = "record") -> Record:
                          f"(steps > {threshold:.4g} s, {threshold / h:.3g} x the median step)")
     starts = np.cumsum([0] + [len(p["t"]) for p in pieces[:-1]]).tolist()
     cat = {k: np.concatenate([p[k] for p in pieces]) for k in pieces[0]}
-    if not held:
+    if not held and not even:
         meta["torque_hold"] = "sample"   # the grid's torques are samples of it now
-    report.update(resampled=True, segments=[_segment(p["t"]) for p in pieces], segments_dropped=dropped,
+    report.update(resampled=not even, segments=[_segment(p["t"]) for p in pieces], segments_dropped=dropped,
                   methods={"q": "pchip", "tau": "previous sample (held)" if held else "linear",
                            **({"qd": "linear"} if "qd" in cols else {})})
     out = Record(t=cat["t"], tau=cat["tau"], q=cat["q"], qd=cat.get("qd"), meta=meta,
                  segments=starts if len(pieces) > 1 else None, step=h)
     out.reading = dict(rec.reading, resampling=report, layout=layout)
+    if still:   # where the joint stood still, its kept rest included (bench.signals.condition)
+        out.reading["standstill_spans"] = spans
     return out
 
 
@@ -142,6 +154,17 @@ class Layout:
         return piece
 
 
+def _without(pieces: list, cuts: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """``pieces`` (raw index ranges) with the ``cuts`` (each inside one piece) taken out."""
+    out = []
+    for a, b in pieces:
+        for lo, hi in sorted(c for c in cuts if a <= c[0] < b):
+            out.append((a, lo))
+            a = hi
+        out.append((a, b))
+    return [(int(a), int(b)) for a, b in out if b > a]
+
+
 def _grid_length(ts: np.ndarray, h: float) -> int:
     return int(np.floor((ts[-1] - ts[0]) / h + 1e-9)) + 1
 
@@ -154,7 +177,8 @@ def on_grid(rec: Record, name: str = "record") -> Record:
         return rec
     t = np.asarray(rec.t, dtype=float)
     d = np.diff(t)
-    if len(d) == 0 or (np.all(d > 0) and np.max(np.abs(d - np.median(d))) <= EVEN_TOL * np.median(d) + 1e-9):
+    if len(d) == 0 or (np.all(d > 0) and np.max(np.abs(d - np.median(d))) <= EVEN_TOL * np.median(d) + 1e-9
+                       and not standstill.stretches(t, np.asarray(rec.q, dtype=float), [(0, len(t))])):
         return rec
     out = regularise(rec, name)
     out.reading.setdefault("raw_t", t.copy())

@@ -50,6 +50,8 @@ class Conditioned:
     segments: list = None
     velocity_source: str = "q"
     tau_mid: np.ndarray = None    # torque over each interval, as the joint felt it (held or mean)
+    # segments that start at rest beside a long standstill (``rest_starts``)
+    rest_starts: frozenset = frozenset()
 
     def __post_init__(self):
         if self.segments is None:
@@ -136,12 +138,13 @@ def _box_average(x, d, stages):
     return x[::d].copy()
 
 
-def excitation_frequency(t: np.ndarray, tau: np.ndarray) -> float:
-    """Fundamental of the applied torque from the peak of its spectrum (Hann window)."""
+def excitation_frequency(t: np.ndarray, tau: np.ndarray, dt: float | None = None) -> float:
+    """Fundamental of the applied torque from the peak of its spectrum (Hann window);
+    ``dt``: the sample step, where time was cut out of the record (long standstills)."""
     x = tau - np.mean(tau)
     n = len(x)
     spec = np.abs(np.fft.rfft(x * np.hanning(n)))
-    freqs = np.fft.rfftfreq(n, d=(t[-1] - t[0]) / (n - 1))
+    freqs = np.fft.rfftfreq(n, d=dt or (t[-1] - t[0]) / (n - 1))
     spec[0] = 0.0
     k = int(np.argmax(spec))
     if 0 < k < len(spec) - 1:  # parabolic interpolation of the peak
@@ -169,13 +172,17 @@ def reversals(v: np.ndarray, threshold: float) -> np.ndarray:
     return np.where(k >= 0, changes[np.maximum(k, 0)], reached).astype(int)
 
 
-def motion_frequency(t: np.ndarray, q: np.ndarray) -> tuple[float, int]:
+def motion_frequency(t: np.ndarray, q: np.ndarray, dt: float | None = None,
+                     span: float | None = None) -> tuple[float, int]:
     """(reversals per second / 2, number of reversals) of the motion: the fundamental of a
     back-and-forth motion, whatever drives it (a torque sine, two tones, a closed loop, a
     log of ordinary motion).  The velocity is a smoothed difference of the encoder (20 ms:
     well below the excitations friction is identified with, well above a coarse encoder's
-    count-to-count chatter); a reversal needs 10 % of the top speed in each direction."""
-    dt = (t[-1] - t[0]) / (len(t) - 1)
+    count-to-count chatter); a reversal needs 10 % of the top speed in each direction.
+    ``dt`` and ``span`` (the step and the time covered) where time was cut out of the record:
+    long standstills (``bench.standstill``) would otherwise dilute the rate."""
+    span = span or t[-1] - t[0]
+    dt = dt or (t[-1] - t[0]) / (len(t) - 1)
     w = max(1, int(round(0.02 / dt)))
     qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
     v = np.diff(qs) / dt
@@ -183,7 +190,7 @@ def motion_frequency(t: np.ndarray, q: np.ndarray) -> tuple[float, int]:
     if vmax <= 0:
         return 0.0, 0
     n = len(reversals(v, 0.1 * vmax))
-    return n / (2.0 * (t[-1] - t[0])), n
+    return n / (2.0 * span), n
 
 
 def choose_cutoff(fs: float, f_exc: float) -> float:
@@ -199,12 +206,14 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     fs = 1.0 / dt
     # the motion's own back-and-forth rate sets the filters and the held-out segments, so any
     # excitation works; a torque sine's spectral peak is more precise, and used when it agrees
-    f_motion, n_rev = motion_frequency(t, q)
+    # time cut out at long standstills is not time the joint moved in
+    cut = rec.reading.get("resampling", {}).get("standstill_time", 0.0)
+    f_motion, n_rev = motion_frequency(t, q, dt if cut else None, rec.duration - cut if cut else None)
     if n_rev < 2 * min_cycles:
         raise InputError(f"{name}: the joint reverses {n_rev} times in {rec.duration:.4g} s, "
                          f"{n_rev / 2:.2f} back-and-forth cycles; at least {min_cycles:g} are needed: "
                          f"record a longer or faster back-and-forth motion")
-    f_exc = excitation_frequency(t, rec.tau)
+    f_exc = excitation_frequency(t, rec.tau, dt if cut else None)
     periodic = bool(np.isfinite(f_exc) and abs(f_exc / f_motion - 1.0) < 0.25)
     if not periodic:
         f_exc = f_motion
@@ -235,7 +244,30 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
                     velocity_source=source, tau_mid=cat("tau_mid"))
     c.t = c.decimate(t)
     c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(cat("v_raw")), c.lowpass(cat("a_raw")), c.lowpass(cat("tau_raw"))
+    c.rest_starts = rest_starts(c, rec.reading.get("standstill_spans", ()))
     return c
+
+
+# Sliding, for a segment's start after a standstill: the share of the top speed at which
+# ``reversals`` counts a direction as reached.
+SLIDING = 0.1
+
+
+def rest_starts(c: Conditioned, spans) -> frozenset:
+    """The segments (after the first) that start before the joint slid again after a long
+    standstill (``bench.standstill``): inside it, or after a logger's gap between its end and
+    the first sliding."""
+    if not spans:
+        return frozenset()
+    fast = np.abs(c.v) >= SLIDING * float(np.percentile(np.abs(c.v), 99.5))
+    out = set()
+    for k, (g, _) in enumerate(c.grid_segments[1:], start=1):
+        t0 = c.t[g]
+        for s0, s1 in spans:
+            after = (c.t >= s1) & (c.t <= t0)     # sliding between the standstill's end and here?
+            if s0 <= t0 <= s1 or (t0 > s1 and not fast[after].any()):
+                out.add(k)
+    return frozenset(out)
 
 
 def _segment_signals(t, q, qd, tau, dt, sos_v, held) -> dict:

@@ -95,6 +95,7 @@ class Recording:
     gravity_left: tuple[float, float] = (0.0, 0.0)  # a sin q + b cos q left in the recorded column
     velocity_column: bool = False         # write qd (the true velocity, as a drive reports it)
     encoder: str = "motor"                # a geared joint's encoder: on the motor or the load
+    rest: float = 0.0                     # s held still before the motion and after it (a robot holding its pose)
 
     def with_(self, **changes) -> "Recording":
         return replace(self, **changes)
@@ -124,6 +125,7 @@ class Recording:
             if getattr(self, name) is not None:
                 _number("--" + name.replace("_", "-"), getattr(self, name), 0.0, math.inf)
         _number("--torque-offset", self.torque_offset, -math.inf, math.inf)
+        _number("--rest", self.rest, 0.0, 1e5)
         for x in self.gravity_left:
             _number("--gravity-left", x, -math.inf, math.inf)
         if self.logger is not None:
@@ -278,6 +280,21 @@ def _open_loop_torque(spec: JointSpec, rec: Recording, t: np.ndarray) -> np.ndar
     return sine_torque(a, f, t) + sine_torque(a2, f2, t, ramp_cycles=0.05 * f2 / f)
 
 
+def motion_envelope(t: np.ndarray, rest: float, duration: float, f: float) -> np.ndarray:
+    """0 for ``rest`` seconds at each end of the record, smoothstepping to 1 over a period of
+    the slowest frequency ``f`` after the first rest and before the last."""
+    up = np.clip((t - rest) * f, 0.0, 1.0)
+    down = np.clip((duration - rest - t) * f, 0.0, 1.0)
+    env = np.minimum(up, down)
+    return env * env * (3.0 - 2.0 * env)
+
+
+def _slowest(spec: JointSpec, rec: Recording) -> float:
+    if rec.excitation == "pd":
+        return min(f for _, f in reference_components(spec, rec))
+    return rec.frequency if rec.frequency is not None else spec.excitation[1]
+
+
 def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
          extra: np.ndarray | None = None, torque_lag: float = 0.0,
          declared_inertia: float | None = None) -> tuple[Record, Truth]:
@@ -290,6 +307,9 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     dt = 1.0 / rec.rate
     n = int(round(duration / dt))
     t = np.arange(n) * dt
+    if rec.rest > 0 and duration - 2 * rec.rest < 4.0 / _slowest(spec, rec):
+        raise InputError(f"--rest {rec.rest:g} s before and after leaves under two motion periods of the "
+                         f"{duration:g} s record: lengthen --duration or shorten --rest")
     f = spec.friction
     M = spec.inertia
     ev = terms.empty() if extra is None else terms.full(extra)
@@ -306,12 +326,18 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
                              "is not emulated yet; use an open-loop excitation")
         comps = reference_components(spec, rec)
         q_ref, v_ref = pd_reference(comps, centred(spec), t)
+        if rec.rest > 0:   # the reference holds the start pose, then fades in; the end fades out
+            env = motion_envelope(t, rec.rest, duration, min(f for _, f in comps))
+            q_ref = centred(spec) + env * (pd_reference(comps, 0.0, t - rec.rest)[0])
+            v_ref = np.gradient(q_ref, t)
         kp, kd = pd_gains(spec, rec, comps)
         cmd, felt, q, v, z, q_end, v_end = _closed_loop(
             q_ref, v_ref, dist, torque_lag / dt, dt, n_sub, M, f.vector(), ev,
             centred(spec), kp, kd, res, spec.torque_limit)
     else:
-        cmd = _open_loop_torque(spec, rec, t)
+        cmd = _open_loop_torque(spec, rec, t - rec.rest)
+        if rec.rest > 0:   # no torque while the joint rests
+            cmd = cmd * motion_envelope(t, rec.rest, duration, _slowest(spec, rec))
         felt = lagged(t, cmd, torque_lag) + dist
         gear = Gear.of(spec, ev, dt)
         if gear is None:

@@ -1,0 +1,93 @@
+"""Long standstills in a log: stretches where the joint stood still for longer than a period of
+its own motion (a robot holding a pose before, between and after its moves).
+
+They carry nothing about friction but its stuck level, and they harm the fit: the bristle
+state integrates the velocity's noise there and relaxes (dither), so a fit bends LuGre until
+the relaxation stops (a friction log of j2 with 15 s still before and after its 20 s of
+motion: Fc 14x the truth, every parameter "not identifiable"; and the motion's frequency,
+counted over the whole record, came out 2.5x low, taking the filters' band with it).  So
+their insides are cut out like a logger's gaps (``bench.resample``): the motion either side
+becomes a segment of its own, and half a reversal interval of the rest is kept at each side,
+so a breakaway from rest stays in the record.  A segment that starts at rest is scored from
+the joint's first sliding (``bench.identify.prepare``), and its bristle start leaves the
+model's own offset, gravity and cogging out of the friction it is read from
+(``bench.model_trace.rest_start_additive``).
+
+A stretch is still where the position stays within a band (``STILL_TRAVEL`` of the travel,
+or three encoder counts) over half a reversal interval; it is long from two median reversal
+intervals (a full back-and-forth period).  The excitation's own sticking at reversals lasts
+less than one interval (the joint moves between reversals), so it is never cut.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
+from bench.signals import reversals
+
+# Position band of a standstill, a share of the record's travel: a creep at 1 % of the top
+# speed for two reversal intervals covers ~3 % of a sine's travel (kept); presliding at a
+# stuck reversal of the Table II joints covers Fs/sigma0, 0.1-0.6 % of theirs, over less than
+# an interval (kept by the length rule).
+STILL_TRAVEL = 0.005
+LONGER_THAN = 2.0   # reversal intervals: a full back-and-forth period of the motion
+MIN_STILL = 1.0     # s, whatever the motion's rate
+KEEP = 0.5          # reversal intervals of rest kept at each side of a cut
+
+
+def stretches(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Raw index ranges [a, b) to leave out: the insides of long standstills, none across
+    ``ranges``' ends (the record's gap-free pieces)."""
+    return standstills(t, q, ranges)[0]
+
+
+def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
+    """(the raw index ranges to leave out, as ``stretches``; the long standstills' whole
+    time spans [(t0, t1)], the kept rest at their ends included)."""
+    interval = reversal_interval(t, q)
+    if interval is None:
+        return [], []
+    h = float(np.median(np.diff(t)))
+    d = np.abs(np.diff(q))
+    d = d[d > 0]
+    count = float(np.percentile(d, 1)) if len(d) else 0.0
+    band = max(STILL_TRAVEL * float(np.ptp(q)), 3.0 * count)
+    w = max(3, int(round(0.5 * interval / h)))
+    out, spans = [], []
+    for a, b in ranges:
+        qs = q[a:b]
+        if len(qs) < w:
+            continue
+        spread = maximum_filter1d(qs, w, mode="nearest") - minimum_filter1d(qs, w, mode="nearest")
+        still = np.concatenate(([False], spread <= band, [False]))
+        edges = np.flatnonzero(np.diff(still.astype(np.int8)))
+        for i, j in zip(edges[::2], edges[1::2]):       # runs [i, j) of still samples
+            # the window's half-width on each side of the run is still too
+            t0, t1 = t[a + i] - 0.5 * w * h, t[a + j - 1] + 0.5 * w * h
+            if t1 - t0 < max(LONGER_THAN * interval, MIN_STILL):
+                continue
+            lo = a + int(np.searchsorted(t[a:b], t0 + KEEP * interval))
+            hi = a + int(np.searchsorted(t[a:b], t1 - KEEP * interval, side="right"))
+            if hi - lo > 1:
+                out.append((lo, hi))
+                spans.append((float(t0), float(t1)))
+    return out, spans
+
+
+def reversal_interval(t: np.ndarray, q: np.ndarray) -> float | None:
+    """The median time between the motion's reversals (``bench.signals.reversals``, on a
+    velocity smoothed over 20 ms), or None with fewer than three."""
+    h = float(np.median(np.diff(t)))
+    w = max(1, int(round(0.02 / h)))
+    qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
+    ts = t[w // 2: w // 2 + len(qs)]
+    v = np.diff(qs) / np.maximum(np.diff(ts), 1e-12)
+    if not len(v):
+        return None
+    vmax = float(np.percentile(np.abs(v), 99.5))
+    if vmax <= 0:
+        return None
+    k = reversals(v, 0.1 * vmax)
+    if len(k) < 3:
+        return None
+    return float(np.median(np.diff(ts[k])))

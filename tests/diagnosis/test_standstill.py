@@ -1,0 +1,63 @@
+"""Robot joint logs with the joint at rest before and after its motion (holding its pose, the
+PD loop on, process noise dithering it): the standstills are left out like gaps and the
+segments that start at rest wait for the joint to slide (``bench.standstill``).  Before, on
+tuning seeds 1310-1326, a 12 s rest either side took Fs to 0-0.5x the truth (five joints of
+six), the rotary motor's Fc 21 % low, and credited a torque lag on j4.  Fresh seeds here."""
+import pytest
+
+from bench.analysis import analyze_record
+from tests.diagnosis.test_conditions import _within
+from virtual_drives.conditions import make_record, recording_for
+from virtual_drives.presets import PRESETS
+from virtual_drives.scenarios import random_effects
+
+REST, DURATION = 12.0, 44.0
+JOINTS = ("j1", "j2", "j3", "j4", "linear", "rotary", "j1", "j2")
+
+
+def _resting_log(joint, seed, condition="robot joint log", effects=()):
+    spec = PRESETS[joint]
+    rec, _ = make_record(spec, recording_for(spec, condition, seed).with_(rest=REST), seed,
+                         duration=DURATION, effects=effects)
+    return spec, analyze_record(rec).report()
+
+
+def test_clean_joints_at_rest_before_and_after_nothing_to_explain():
+    misses = []
+    for i, joint in enumerate(JOINTS):
+        spec, doc = _resting_log(joint, 5450 + i)
+        assert doc["resampling"]["standstills_cut"] and "stood still" in doc["warnings"][0]
+        credited = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
+        if credited or doc["unexplained"]["structured"] or not _within(doc, spec):
+            misses.append((joint, 5450 + i, credited, {k: doc["parameters"][k] for k in ("Fc", "Fs", "sigma2")}))
+    assert len(misses) <= 1, misses
+
+
+@pytest.mark.parametrize("joint, seed", [("j1", 5460), ("j2", 5461), ("j3", 5462), ("j4", 5463),
+                                         ("j1", 5474), ("j2", 5475), ("j3", 5476), ("j4", 5477)])
+def test_an_offset_at_rest_is_named_and_does_not_bend_the_friction(joint, seed):
+    """An offset in the friction column is read at rest too: a segment that starts there must
+    not take it for the bristles' deflection.  Over this travel an offset and gravity are one
+    (README known limits), so either name is right.  5463 failed (a direction asymmetry) while
+    only segments starting inside a standstill counted as starting at rest: its motion began
+    just after a logger's gap; 5474-5477 were added after that change."""
+    spec, doc = _resting_log(joint, seed, "robot joint log with offset")
+    top = doc["diagnosis"][0]
+    assert top["effect"] in ("torque_offset", "gravity") and top["significant"], doc["diagnosis"][:2]
+    assert len(doc["final"]["effects"]) == 1, doc["final"]
+    assert _within(doc, spec), doc["parameters"]
+    assert not doc["unexplained"]["structured"], doc["unexplained"]["evidence"]
+
+
+@pytest.mark.parametrize("effect, joint, seed", [("direction_asymmetry", "j3", 5478), ("cogging", "j4", 5465),
+                                                 ("thermal_drift", "j2", 5466)])
+def test_a_library_effect_is_named_first_in_a_log_with_rests(effect, joint, seed):
+    """(An inertia error was tried first, 5464: on a friction column it is one measurement with
+    a lag of the reading, and the lag was named, as the README's known limits say.)"""
+    spec = PRESETS[joint]
+    texts = random_effects(spec, [effect], seed)
+    _, doc = _resting_log(joint, seed, effects=texts)
+    assert doc["diagnosis"][0]["effect"] == effect and doc["diagnosis"][0]["significant"], (texts, doc["diagnosis"][:2])
+    assert doc["final"]["effects"] == [effect], (texts, doc["final"])
+    assert doc["final"]["rms_error"] <= 0.7 * doc["baseline"]["rms_error"], texts
+    assert not doc["unexplained"]["structured"], (texts, doc["unexplained"]["evidence"])
