@@ -25,6 +25,8 @@ from bench.lugre import LuGreParams
 # six joints each) had neighbours 6.8-860000x worse than the drift; steps of 6-12 % of Fc
 # 0.11-0.73x, 1.0-1.9 % of Fc.
 FOLLOWS_RATIO, FOLLOWS_SIZE = 1.0, 0.008
+# Drifts no warm-up makes: a level falling below a tenth of itself or growing tenfold.
+RUNAWAY = (-0.9, 9.0)
 
 
 class ThermalDrift(Effect):
@@ -72,8 +74,13 @@ class ThermalDrift(Effect):
         level, visc = values["th_gain"] * rise, values["th_visc"] * rise
         what = (f"friction level drifts by {level:+.0%}" if abs(level - visc) < 0.02 else
                 f"Coulomb/Stribeck level drifts by {level:+.0%} and viscous friction by {visc:+.0%}")
-        return (f"{what} over the {T:.3g} s record (time constant {values['th_tau']:.3g} s), as a "
+        text = (f"{what} over the {T:.3g} s record (time constant {values['th_tau']:.3g} s), as a "
                 f"joint warming up does; {explained_text(explained)}")
+        if min(level, visc) <= RUNAWAY[0] or max(level, visc) >= RUNAWAY[1]:
+            # an entry tried and not added can end anywhere (a friction-column log of j2:
+            # -147 % and +3e8 %); said, so a reader does not take it for a measurement
+            text += "; no joint warms up like that: this refit ran away and measures nothing"
+        return text
 
     def inject(self, kw, ev, spec):
         check_known(kw, ("gain", "tau", "viscous_gain"), self.name)

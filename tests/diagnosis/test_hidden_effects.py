@@ -200,3 +200,15 @@ def test_an_offset_over_a_short_travel_says_gravity_could_be_it():
     sim, _ = simulate_scenario(PRESETS["j2"], ["gravity"], 5406)
     top = analyze_record(sim.record).report()["diagnosis"][0]
     assert top["effect"] == "gravity" and "cannot be told apart" not in top["evidence"], top
+
+
+def test_a_drift_no_warm_up_makes_says_its_refit_ran_away():
+    """An entry tried and not added can end anywhere (a friction-column log: a level drift of
+    -147 % and a viscous one of +3e8 %); its evidence must not read as a measurement."""
+    sim, _ = simulate_scenario(PRESETS["j3"], [], 5407)
+    ctx = analyze_record(sim.record).diagnosis.contexts[0]
+    drift = EFFECTS["thermal_drift"]
+    warm = dict(ctx.values, th_tau=5.0, th_gain=0.05, th_visc=-0.2)
+    assert "ran away" not in drift.evidence(warm, 0.3, ctx)
+    assert "ran away" in drift.evidence(dict(warm, th_visc=3e6), 0.0, ctx)
+    assert "ran away" in drift.evidence(dict(warm, th_gain=-2.0, th_tau=0.1), 0.0, ctx)
