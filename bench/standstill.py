@@ -77,8 +77,10 @@ def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
 def reversal_interval(t: np.ndarray, q: np.ndarray) -> float | None:
     """The median time between the motion's reversals (``bench.signals.reversals``, on a
     velocity smoothed over 20 ms), or None with fewer than three."""
-    h = float(np.median(np.diff(t)))
-    w = max(1, int(round(0.02 / h)))
+    h = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    w = max(1, int(round(0.02 / h))) if h > 0 else 1
+    if len(q) < w + 3:     # too short to have reversals (extreme inputs: a few samples)
+        return None
     qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
     ts = t[w // 2: w // 2 + len(qs)]
     v = np.diff(qs) / np.maximum(np.diff(ts), 1e-12)
