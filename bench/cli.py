@@ -62,6 +62,7 @@ def simulate(
     gravity_left: Optional[str] = typer.Option(None, help="uncompensated gravity left in the recorded column: 'A,B' for A sin q + B cos q, or 'joint' for the preset's own"),
     declared_inertia: Optional[float] = typer.Option(None, help="inertia written to the record (default: the true one)"),
     rest: Optional[float] = typer.Option(None, help="seconds the joint is held still before the motion and after it, inside --duration (a robot holding its pose)"),
+    pause: Optional[float] = typer.Option(None, help="seconds the joint is held still in the middle of the motion (between two moves), inside --duration"),
     param: List[str] = typer.Option([], "--param", help="override a friction parameter, e.g. --param Fc=2.0 (also delta)"),
     effect: List[str] = typer.Option([], "--effect", help="inject a hidden effect, e.g. cogging:amplitude=0.4,pitch=0.025"),
     output: Path = typer.Option(..., "--output", "-o", help="CSV file to write"),
@@ -92,7 +93,7 @@ def simulate(
             excitation=excitation, amplitude=amplitude, frequency=frequency, bandwidth=bandwidth, rate=rate,
             process_noise=process_noise, process_noise_tau=process_noise_tau, torque_noise=torque_noise,
             encoder_resolution=encoder_resolution, output=output_kind, torque_offset=torque_offset,
-            encoder=encoder, rest=rest).items()
+            encoder=encoder, rest=rest, pause=pause).items()
             if v is not None}
         rec = rec.with_(**given)
         if process_noise_colour is not None or process_noise_tau is not None:

@@ -96,6 +96,7 @@ class Recording:
     velocity_column: bool = False         # write qd (the true velocity, as a drive reports it)
     encoder: str = "motor"                # a geared joint's encoder: on the motor or the load
     rest: float = 0.0                     # s held still before the motion and after it (a robot holding its pose)
+    pause: float = 0.0                    # s held still in the middle of the motion (between two moves)
 
     def with_(self, **changes) -> "Recording":
         return replace(self, **changes)
@@ -126,6 +127,7 @@ class Recording:
                 _number("--" + name.replace("_", "-"), getattr(self, name), 0.0, math.inf)
         _number("--torque-offset", self.torque_offset, -math.inf, math.inf)
         _number("--rest", self.rest, 0.0, 1e5)
+        _number("--pause", self.pause, 0.0, 1e5)
         for x in self.gravity_left:
             _number("--gravity-left", x, -math.inf, math.inf)
         if self.logger is not None:
@@ -280,12 +282,15 @@ def _open_loop_torque(spec: JointSpec, rec: Recording, t: np.ndarray) -> np.ndar
     return sine_torque(a, f, t) + sine_torque(a2, f2, t, ramp_cycles=0.05 * f2 / f)
 
 
-def motion_envelope(t: np.ndarray, rest: float, duration: float, f: float) -> np.ndarray:
-    """0 for ``rest`` seconds at each end of the record, smoothstepping to 1 over a period of
-    the slowest frequency ``f`` after the first rest and before the last."""
+def motion_envelope(t: np.ndarray, rest: float, duration: float, f: float,
+                    pause: float = 0.0) -> np.ndarray:
+    """0 for ``rest`` seconds at each end of the record and ``pause`` seconds in its middle,
+    smoothstepping to 1 over a period of the slowest frequency ``f`` around each."""
     up = np.clip((t - rest) * f, 0.0, 1.0)
     down = np.clip((duration - rest - t) * f, 0.0, 1.0)
     env = np.minimum(up, down)
+    if pause > 0:
+        env = np.minimum(env, np.clip((np.abs(t - 0.5 * duration) - 0.5 * pause) * f, 0.0, 1.0))
     return env * env * (3.0 - 2.0 * env)
 
 
@@ -307,9 +312,11 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     dt = 1.0 / rec.rate
     n = int(round(duration / dt))
     t = np.arange(n) * dt
-    if rec.rest > 0 and duration - 2 * rec.rest < 4.0 / _slowest(spec, rec):
-        raise InputError(f"--rest {rec.rest:g} s before and after leaves under two motion periods of the "
-                         f"{duration:g} s record: lengthen --duration or shorten --rest")
+    still = rec.rest > 0 or rec.pause > 0
+    if still and duration - 2 * rec.rest - rec.pause < (8.0 if rec.pause > 0 else 4.0) / _slowest(spec, rec):
+        raise InputError(f"--rest {rec.rest:g} s before and after and --pause {rec.pause:g} s leave under two "
+                         f"motion periods (each side of a pause) of the {duration:g} s record: lengthen "
+                         f"--duration or shorten --rest / --pause")
     f = spec.friction
     M = spec.inertia
     ev = terms.empty() if extra is None else terms.full(extra)
@@ -326,8 +333,8 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
                              "is not emulated yet; use an open-loop excitation")
         comps = reference_components(spec, rec)
         q_ref, v_ref = pd_reference(comps, centred(spec), t)
-        if rec.rest > 0:   # the reference holds the start pose, then fades in; the end fades out
-            env = motion_envelope(t, rec.rest, duration, min(f for _, f in comps))
+        if still:   # the reference holds the start pose, then fades in; it fades out to it
+            env = motion_envelope(t, rec.rest, duration, min(f for _, f in comps), rec.pause)
             q_ref = centred(spec) + env * (pd_reference(comps, 0.0, t - rec.rest)[0])
             v_ref = np.gradient(q_ref, t)
         kp, kd = pd_gains(spec, rec, comps)
@@ -336,8 +343,8 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
             centred(spec), kp, kd, res, spec.torque_limit)
     else:
         cmd = _open_loop_torque(spec, rec, t - rec.rest)
-        if rec.rest > 0:   # no torque while the joint rests
-            cmd = cmd * motion_envelope(t, rec.rest, duration, _slowest(spec, rec))
+        if still:   # no torque while the joint rests
+            cmd = cmd * motion_envelope(t, rec.rest, duration, _slowest(spec, rec), rec.pause)
         felt = lagged(t, cmd, torque_lag) + dist
         gear = Gear.of(spec, ev, dt)
         if gear is None:
