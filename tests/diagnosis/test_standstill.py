@@ -1,8 +1,8 @@
 """Robot joint logs with the joint at rest before and after its motion (holding its pose, the
 PD loop on, process noise dithering it): the standstills are left out like gaps and the
 segments that start at rest wait for the joint to slide (``bench.standstill``).  Before, on
-tuning seeds 1310-1326, a 12 s rest either side took Fs to 0-0.5x the truth (five joints of
-six), the rotary motor's Fc 21 % low, and credited a torque lag on j4.  Fresh seeds here."""
+tuning seeds 1310-1315, a 12 s rest either side took Fs to 0-0.64x the truth on j1-j4, the
+rotary motor's Fc 21 % low, and credited a torque lag on j4.  Fresh seeds here."""
 import pytest
 
 from bench.analysis import analyze_record
