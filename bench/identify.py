@@ -21,7 +21,7 @@ from bench.errors import InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, fit, predict
 from bench.lugre import LuGreParams
 from bench.records import Record
-from bench.signals import SLIDING, Conditioned, condition, zero_crossings
+from bench.signals import Conditioned, condition, zero_crossings
 
 # A parameter is reported identifiable when its 2-sigma band is within +-30 % of its value.
 IDENTIFIABLE_REL_SE = 0.15
@@ -77,14 +77,13 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
         edge = int(min(n // 10, edge))
         mask[max(edge, settle):n - edge] = True
     else:  # split at gaps: each segment has its own filter edges and bristle start
-        sliding = SLIDING * float(np.percentile(np.abs(c.v), 99.5))
         for k, (a, b) in enumerate(c.grid_segments):
             start = max(edge, settle) if k == 0 else edge
-            if k in c.rest_starts or (k == 0 and c.rest_starts):
+            if k in c.rest_starts:
                 # a segment that starts at rest beside a long standstill (bench.standstill)
                 # waits for the joint to slide: its bristle start is read from a friction that
                 # may carry an offset or gravity, and only sliding makes the state forget it
-                moved = np.flatnonzero(np.abs(c.v[a:b]) >= sliding)
+                moved = np.flatnonzero(np.abs(c.v[a:b]) >= c.sliding_speed)
                 start = max(start, int(moved[0]) if len(moved) else b - a)
             mask[a + start:max(b - edge, a)] = True
     if not mask.any() and len(c.segments) > 1:

@@ -77,7 +77,7 @@ def rest_start_additive(c: Conditioned, ev: np.ndarray) -> dict:
         return {}
     out = {}
     for k, (g, _) in enumerate(c.grid_segments):
-        if k == 0 or k in c.rest_starts:
+        if k in c.rest_starts:
             add, _, _ = terms.effect_terms(c.q[g:g + 1], c.v[g:g + 1], c.t[g:g + 1], ev)
             out[k] = float(add[0])
     return out

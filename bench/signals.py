@@ -57,6 +57,11 @@ class Conditioned:
         if self.segments is None:
             self.segments = [(0, len(self.t_full))]
 
+    @cached_property
+    def sliding_speed(self) -> float:
+        """A speed the joint only reaches sliding: ``SLIDING`` of the top speed."""
+        return SLIDING * float(np.percentile(np.abs(self.v), 99.5))
+
     @property
     def dt_grid(self) -> float:
         return self.dt * self.decim
@@ -182,15 +187,23 @@ def motion_frequency(t: np.ndarray, q: np.ndarray, dt: float | None = None,
     ``dt`` and ``span`` (the step and the time covered) where time was cut out of the record:
     long standstills (``bench.standstill``) would otherwise dilute the rate."""
     span = span or t[-1] - t[0]
-    dt = dt or (t[-1] - t[0]) / (len(t) - 1)
+    n = len(motion_reversals(q, dt or (t[-1] - t[0]) / (len(t) - 1))[0])
+    return n / (2.0 * span), n
+
+
+def motion_reversals(q: np.ndarray, dt: float, steps: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """(the reversals of ``motion_frequency``'s smoothed velocity, the smoothing's width w):
+    reversal i lies between samples w // 2 + k[i] and the next of ``q``.  The velocity is the
+    smoothed position's difference over ``dt``, or over each of ``steps`` (the record's own,
+    uneven: ``steps[j]`` is t[j + 1] - t[j])."""
     w = max(1, int(round(0.02 / dt)))
     qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
-    v = np.diff(qs) / dt
+    h = dt if steps is None else np.maximum(steps[w // 2: w // 2 + len(qs) - 1], 1e-12)
+    v = np.diff(qs) / h
     vmax = float(np.percentile(np.abs(v), 99.5)) if len(v) else 0.0
     if vmax <= 0:
-        return 0.0, 0
-    n = len(reversals(v, 0.1 * vmax))
-    return n / (2.0 * span), n
+        return np.zeros(0, dtype=int), w
+    return reversals(v, 0.1 * vmax), w
 
 
 def choose_cutoff(fs: float, f_exc: float) -> float:
@@ -254,20 +267,19 @@ SLIDING = 0.1
 
 
 def rest_starts(c: Conditioned, spans) -> frozenset:
-    """The segments (after the first) that start before the joint slid again after a long
-    standstill (``bench.standstill``): inside it, or after a logger's gap between its end and
-    the first sliding."""
+    """The segments that start before the joint slid again after a long standstill
+    (``bench.standstill``): inside it, or after a logger's gap between its end and the first
+    sliding; and then the record's first too, whose bristle start is read at its first sample
+    as theirs is.  Empty where no standstill was cut."""
     if not spans:
         return frozenset()
-    fast = np.abs(c.v) >= SLIDING * float(np.percentile(np.abs(c.v), 99.5))
-    out = set()
-    for k, (g, _) in enumerate(c.grid_segments[1:], start=1):
-        t0 = c.t[g]
-        for s0, s1 in spans:
-            after = (c.t >= s1) & (c.t <= t0)     # sliding between the standstill's end and here?
-            if s0 <= t0 <= s1 or (t0 > s1 and not fast[after].any()):
-                out.add(k)
-    return frozenset(out)
+    fast = c.t[np.abs(c.v) >= c.sliding_speed]
+    later = set()
+    for s0, s1 in spans:
+        after = fast[fast >= s1]
+        slid = after[0] if len(after) else np.inf       # the first sliding after the standstill
+        later |= {k for k, (g, _) in enumerate(c.grid_segments) if k and (s0 <= c.t[g] <= s1 or s1 < c.t[g] < slid)}
+    return frozenset(later | {0}) if later else frozenset()
 
 
 def _segment_signals(t, q, qd, tau, dt, sos_v, held) -> dict:

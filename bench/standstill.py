@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from bench.signals import reversals
+from bench.signals import motion_reversals
 
 # Position band of a standstill, a share of the record's travel: a creep at 1 % of the top
 # speed for two reversal intervals covers ~3 % of a sine's travel (kept); presliding at a
@@ -77,21 +77,13 @@ def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
 
 
 def reversal_interval(t: np.ndarray, q: np.ndarray) -> float | None:
-    """The median time between the motion's reversals (``bench.signals.reversals``, on a
-    velocity smoothed over 20 ms), or None with fewer than three."""
+    """The median time between the motion's reversals (``bench.signals.motion_reversals``, on
+    the record's own steps), or None with fewer than three."""
     h = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     w = max(1, int(round(0.02 / h))) if h > 0 else 1
     if len(q) < w + 3:     # too short to have reversals (extreme inputs: a few samples)
         return None
-    qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
-    ts = t[w // 2: w // 2 + len(qs)]
-    v = np.diff(qs) / np.maximum(np.diff(ts), 1e-12)
-    if not len(v):
-        return None
-    vmax = float(np.percentile(np.abs(v), 99.5))
-    if vmax <= 0:
-        return None
-    k = reversals(v, 0.1 * vmax)
+    k, w = motion_reversals(q, h, np.diff(t))
     if len(k) < 3:
         return None
-    return float(np.median(np.diff(ts[k])))
+    return float(np.median(np.diff(t[w // 2 + k])))
