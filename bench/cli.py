@@ -50,6 +50,7 @@ def simulate(
     process_noise_colour: Optional[str] = typer.Option(None, help="white, lowpass or pink (1/f); default white, lowpass when --process-noise-tau is given"),
     torque_noise: Optional[float] = typer.Option(None, help="std of the torque (or friction) reading noise: measurement noise only"),
     encoder_resolution: Optional[float] = typer.Option(None, help="position per encoder count"),
+    torque_resolution: Optional[float] = typer.Option(None, help="the torque (or friction) reading's step, e.g. a CiA 402 drive's 0x6077 in per-mille of its rated torque"),
     encoder: Optional[str] = typer.Option(None, help="a geared joint's encoder (backlash, joint_flexibility): motor (default) or load; written to the record as 'encoder'"),
     logger: bool = typer.Option(False, "--logger", help="sample like a PC logger: jittered 1-13 ms steps, dropped samples, occasional stalls"),
     logger_step: Optional[float] = typer.Option(None, help="the logger's mean step \\[s] (default 0.004; steps stay within 1-13 ms)"),
@@ -93,7 +94,7 @@ def simulate(
             excitation=excitation, amplitude=amplitude, frequency=frequency, bandwidth=bandwidth, rate=rate,
             process_noise=process_noise, process_noise_tau=process_noise_tau, torque_noise=torque_noise,
             encoder_resolution=encoder_resolution, output=output_kind, torque_offset=torque_offset,
-            encoder=encoder, rest=rest, pause=pause).items()
+            encoder=encoder, rest=rest, pause=pause, torque_resolution=torque_resolution).items()
             if v is not None}
         rec = rec.with_(**given)
         if process_noise_colour is not None or process_noise_tau is not None:

@@ -74,6 +74,7 @@ def regularise(rec: Record, name: str = "record") -> Record:
         "jitter": float(np.std(steps) / h), "duplicates_dropped": duplicates,
         "gap_threshold": threshold, "gap_threshold_steps": threshold / h, "gaps": int(len(gaps)),
         "longest_gap": float(d[gaps].max()) if len(gaps) else 0.0,
+        "torque_resolution": reading_resolution(cols["tau"]),
     }
     meta = dict(rec.meta)
     even = np.max(np.abs(d - h)) <= EVEN_TOL * h + 1e-9
@@ -167,6 +168,18 @@ def _without(pieces: list, cuts: list[tuple[int, int]]) -> list[tuple[int, int]]
 
 def _grid_length(ts: np.ndarray, h: float) -> int:
     return int(np.floor((ts[-1] - ts[0]) / h + 1e-9)) + 1
+
+
+def reading_resolution(x: np.ndarray) -> float:
+    """The step a reading sits on (an encoder's count; a drive's torque in per-mille of its
+    rated torque, an ADC's count), or 0 when its values are not on a grid."""
+    d = np.abs(np.diff(x))
+    d = d[d > 0]
+    if len(d) < 10:
+        return 0.0
+    res = float(np.percentile(d, 1))
+    steps = np.abs(x - x[0]) / res
+    return res if np.mean(np.abs(steps - np.round(steps)) < 0.02) > 0.98 else 0.0
 
 
 def on_grid(rec: Record, name: str = "record") -> Record:

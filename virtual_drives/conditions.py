@@ -115,6 +115,14 @@ def _robot_log_offset(spec, rng):
     return rec.with_(torque_offset=float(rng.uniform(0.2, 0.3) * rng.choice((-1.0, 1.0)) * _fc(spec)))
 
 
+def _per_mille(spec, rng):
+    # a CiA 402 drive's torque actual value (0x6077) logged as it is: per-mille of the rated
+    # torque, with the friction 1-10 % of rated (a direct drive, a ball screw) -> steps of 1-10 %
+    # of Fc; a harmonic drive's (friction 5-20 % of rated) are finer still
+    return Recording(torque_resolution=float(np.exp(rng.uniform(np.log(0.01), np.log(0.1)))) * _fc(spec),
+                     torque_noise=rng.uniform(0.002, 0.01) * _fc(spec))
+
+
 def _c(name, summary, build):
     return name, Condition(name, summary, build)
 
@@ -138,6 +146,7 @@ EXTRA_CONDITIONS: dict[str, Condition] = dict((
     _c("robot joint log at 100-125 Hz", "the robot joint log published at 100-125 Hz", _robot_log_slow),
     _c("robot joint log with offset", "the same with a constant offset of 20-30 % of Fc in the friction",
        _robot_log_offset),
+    _c("drive torque in per-mille", "the torque a CiA 402 drive reports: steps of 1-10 % of Fc", _per_mille),
 ))
 
 

@@ -147,8 +147,8 @@ class VirtualJoint:
 def quantise(q, resolution: float):
     if resolution <= 0:
         return q
-    return np.round(np.asarray(q) / resolution) * resolution if np.ndim(q) else \
-        round(q / resolution) * resolution
+    return np.round(np.asarray(q) / resolution) * resolution + 0.0 if np.ndim(q) else \
+        round(q / resolution) * resolution + 0.0   # + 0.0: no "-0" in a record
 
 
 def sine_torque(amplitude: float, frequency: float, t: np.ndarray,

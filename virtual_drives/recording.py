@@ -88,6 +88,7 @@ class Recording:
     process_noise_tau: float = 0.0        # its correlation time [s] (lowpass), longest (pink)
     process_noise_colour: str = "white"
     torque_noise: float | None = None     # std of the torque (or friction) reading noise
+    torque_resolution: float = 0.0        # the reading's step (a drive's per-mille of rated torque)
     encoder_resolution: float | None = None
     logger: Logger | None = None          # None: uniform samples at ``rate``
     output: str = "torque"
@@ -122,7 +123,7 @@ class Recording:
                 and not self.process_noise_tau > 1.0 / self.rate:
             raise InputError(f"{self.process_noise_colour} process noise needs --process-noise-tau longer "
                              f"than the control period {1.0 / self.rate:g} s, got {self.process_noise_tau:g}")
-        for name in ("torque_noise", "encoder_resolution"):
+        for name in ("torque_noise", "encoder_resolution", "torque_resolution"):
             if getattr(self, name) is not None:
                 _number("--" + name.replace("_", "-"), getattr(self, name), 0.0, math.inf)
         _number("--torque-offset", self.torque_offset, -math.inf, math.inf)
@@ -380,6 +381,7 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     a, b = rec.gravity_left
     if a or b:
         column = column + a * np.sin(q_meas) + b * np.cos(q_meas)
+    column = quantise(column, rec.torque_resolution)   # what the drive's register holds
     meta = {
         "inertia": 0.0 if rec.output == "friction" else declared,
         "joint_type": spec.joint_type,

@@ -216,6 +216,32 @@ def test_cli_writes_shaped_records_and_refuses_bad_numbers(tmp_path):
                         (["--rate", "inf"], "--rate must be"),
                         (["--excitation", "chirp"], "--excitation must be one of"),
                         (["--gravity-left", "1,x"], "--gravity-left"),
-                        (["--condition", "nope"], "unknown condition")):
+                        (["--condition", "nope"], "unknown condition"),
+                        (["--torque-resolution", "-0.5"], "--torque-resolution must be")):
         r = runner.invoke(app, ["simulate", *args, "-o", str(tmp_path / "x.csv")])
         assert r.exit_code == 2 and words in r.output and "Traceback" not in r.output, (args, r.output)
+
+
+def test_a_torque_read_in_steps_is_written_found_and_reported(tmp_path):
+    """``--torque-resolution``: the column holds whole steps (a drive's per-mille counts; 8 N·m is 7.6 % of j3's Fc), the
+    reader finds the step (``resampling.torque_resolution``), and a record read exactly has 0."""
+    from bench.resample import reading_resolution
+    runner = CliRunner()
+    out = tmp_path / "pm.csv"
+    r = runner.invoke(app, ["simulate", "--joint", "j3", "--duration", "12", "--seed", "5501",
+                            "--torque-resolution", "8", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    rec = read_csv(out)
+    counts = rec.tau / 8
+    assert np.allclose(counts, np.round(counts), atol=1e-6) and len(np.unique(counts)) > 20
+    assert "-0," not in out.read_text()                    # no negative zeros in the file
+    assert reading_resolution(rec.tau) == pytest.approx(8)
+    assert reading_resolution(rec.tau + 0.7) == pytest.approx(8)     # a grid off zero
+    assert reading_resolution(rec.tau + np.random.default_rng(5502).normal(0, 0.01, len(rec.tau))) == 0.0
+    js = tmp_path / "pm.json"
+    r = runner.invoke(app, ["analyze", str(out), "--no-diagnosis", "--json", str(js)])
+    assert r.exit_code == 0, r.output
+    import json
+    doc = json.loads(js.read_text())
+    assert doc["resampling"]["torque_resolution"] == pytest.approx(8)
+    assert any(w.startswith("the torque column sits on steps of 8 N·m") for w in doc["warnings"])
