@@ -21,6 +21,7 @@ from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, is_identifiable
 from bench.perfect_model import replay, torque_step
+from bench.reading_warnings import reading_warnings
 from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
@@ -184,25 +185,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             except NotIdentifiable:
                 raise refused from None
             ident.warnings.insert(0, REVERSED_WARNING)
-        for role, why in rec.reading.get("header_units", {}).get("ignored", {}).items():
-            ident.warnings.insert(0, f"the header states the {role} column's unit: {why}")
-        if rec.reading.get("text_row_skipped"):
-            ident.warnings.insert(0, TEXT_ROW_WARNING)
-        if rec.reading.get("glitches"):
-            ident.warnings.insert(0, GLITCH_WARNING.format(n=rec.reading["glitches"]))
-        if rec.reading.get("time_counter"):
-            ident.warnings.insert(0, COUNTER_WARNING.format(**rec.reading["time_counter"]))
-        if rec.reading.get("turns_unwrapped"):
-            ident.warnings.insert(0, UNWRAPPED_WARNING.format(n=rec.reading["turns_unwrapped"]))
-        still = rec.reading.get("resampling", {}).get("standstills_cut")
-        if still:
-            ident.warnings.insert(0, STANDSTILL_WARNING.format(
-                n=len(still), s=rec.reading["resampling"]["standstill_time"]))
         step = torque_step(rec, ident.result.values["Fc"])
-        if step > 0:
-            unit = "N" if str(rec.meta.get("joint_type", "revolute")).lower() == "prismatic" else "N·m"
-            ident.warnings.insert(0, COARSE_TORQUE_WARNING.format(
-                step=step, unit=unit, share=100 * step / abs(ident.result.values["Fc"])))
+        ident.warnings[:0] = reading_warnings(rec, ident.result.values["Fc"], step)
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
@@ -220,30 +204,6 @@ REVERSED_WARNING = ("the torque column counts positive against the position: at 
                     "friction opposed the motion in both directions, which friction cannot do; "
                     "the torque's sign was reversed (the parameters and residuals are for "
                     "the torque in the position's sense)")
-
-
-STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
-                      "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
-                      "motion after each scored from the joint's first sliding")
-# A torque reading in steps (``perfect_model.COARSE_TORQUE``, 5 % of Fc) of 10 % of Fc moved the
-# identified Fc by up to 5 %, of 20 % by up to 13 % (reading noise 0.5-3 % of Fc, too little to
-# dither the steps; tuning seeds 1370-1375, 1764-1767); at 1.5-3.5 % it stayed within 0.7 %
-# (1362-1365).
-COARSE_TORQUE_WARNING = ("the torque column sits on steps of {step:.3g} {unit}, {share:.2g} % of the Coulomb "
-                         "level (a drive's per-mille of its rated torque, an ADC's count): the "
-                         "friction levels can be off by up to half a step; record the torque finer "
-                         "(more bits, or the current in a smaller unit) to measure them closer")
-UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the record: a single-turn "
-                     "encoder, or an angle logged modulo 360 degrees); it was unwrapped before "
-                     "the analysis")
-
-
-GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and back (encoder or "
-                  "logger glitches): their positions were interpolated from the samples around them")
-TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
-                    "skipped as a description row")
-COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
-                   "record); it was unwrapped before the analysis")
 
 
 def _glitches_mended(rec: Record) -> Record:

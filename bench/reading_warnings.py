@@ -1,0 +1,52 @@
+"""What reading a record did to it, told ahead of the fit's own warnings: a header's units set
+aside, a description row skipped, glitches mended, a wrapping clock or angle unwrapped,
+standstills cut, a torque read in coarse steps.  Each changes what the numbers mean, so the
+report says it first."""
+from __future__ import annotations
+
+from bench.records import Record
+
+STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
+                      "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
+                      "motion after each scored from the joint's first sliding")
+# A torque reading in steps (``perfect_model.COARSE_TORQUE``, 5 % of Fc) of 10 % of Fc moved the
+# identified Fc by up to 5 %, of 20 % by up to 13 % (reading noise 0.5-3 % of Fc, too little to
+# dither the steps; tuning seeds 1370-1375, 1764-1767); at 1.5-3.5 % it stayed within 0.7 %
+# (1362-1365).
+COARSE_TORQUE_WARNING = ("the torque column sits on steps of {step:.3g} {unit}, {share:.2g} % of the "
+                         "Coulomb level (a drive's per-mille of its rated torque, an ADC's count): the "
+                         "friction levels can be off by up to half a step; record the torque finer "
+                         "(more bits, or the current in a smaller unit) to measure them closer")
+UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the record: a single-turn "
+                     "encoder, or an angle logged modulo 360 degrees); it was unwrapped before "
+                     "the analysis")
+GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and back (encoder or "
+                  "logger glitches): their positions were interpolated from the samples around them")
+TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
+                    "skipped as a description row")
+COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
+                   "record); it was unwrapped before the analysis")
+
+
+def reading_warnings(rec: Record, fc: float, torque_step: float) -> list[str]:
+    """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque
+    reading's step when it is coarse (``perfect_model.torque_step``), else 0."""
+    r = rec.reading
+    out = []
+    if torque_step > 0:
+        unit = "N" if str(rec.meta.get("joint_type", "revolute")).lower() == "prismatic" else "N·m"
+        out.append(COARSE_TORQUE_WARNING.format(step=torque_step, unit=unit, share=100 * torque_step / abs(fc)))
+    still = r.get("resampling", {}).get("standstills_cut")
+    if still:
+        out.append(STANDSTILL_WARNING.format(n=len(still), s=r["resampling"]["standstill_time"]))
+    if r.get("turns_unwrapped"):
+        out.append(UNWRAPPED_WARNING.format(n=r["turns_unwrapped"]))
+    if r.get("time_counter"):
+        out.append(COUNTER_WARNING.format(**r["time_counter"]))
+    if r.get("glitches"):
+        out.append(GLITCH_WARNING.format(n=r["glitches"]))
+    if r.get("text_row_skipped"):
+        out.append(TEXT_ROW_WARNING)
+    ignored = list(r.get("header_units", {}).get("ignored", {}).items())
+    out += [f"the header states the {role} column's unit: {why}" for role, why in reversed(ignored)]
+    return out
