@@ -185,8 +185,8 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             except NotIdentifiable:
                 raise refused from None
             ident.warnings.insert(0, REVERSED_WARNING)
-        step = torque_step(rec, ident.result.values["Fc"])
-        ident.warnings[:0] = reading_warnings(rec, ident.result.values["Fc"], step)
+        step = torque_step(rec, ident.data.coulomb)
+        ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step)
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
@@ -240,11 +240,12 @@ def fit_errors():
 
 def _count_torque_steps(diag: Diagnosis, ident: Identification, rec: Record, step: float) -> None:
     """The verdict on what is left counts a coarse torque reading's steps (``perfect_model.
-    COARSE_TORQUE``): a perfect model read through them leaves a structure of its own.  The
-    effects were judged against the finer twin: its higher floor let library effects that
-    absorbed physics outside the library stand as the whole story (a saturating torque constant
-    taken for backlash on j2 and for position-dependent friction on j4, tuning seeds 1382, 1384,
-    steps of 10 % of Fc)."""
+    COARSE_TORQUE``): a perfect model read through them leaves a structure of its own.  Only
+    the verdict: were it the floor while absorbers are weeded out (``drop_absorbers``) and the
+    chain's error in an effect's own-physics checks, library effects that absorbed physics
+    outside the library stood as the whole story (a saturating torque constant taken for
+    backlash on j2 and position-dependent friction on j4, tuning seeds 1382, 1384, steps of
+    10 % of Fc)."""
     data = ident.data
     twin, residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff, tau_step=step)
     diag.replay_rms = max(diag.replay_rms, float(np.sqrt(np.mean(residual[twin.mask] ** 2))))
@@ -264,12 +265,19 @@ def _diagnose(ident: Identification, rec: Record, add):
     data = ident.data
     twin, twin_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff)
     replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
+    # a coarse torque reading's steps follow the motion: an effect must explain more of the
+    # record than of a perfect model read through them (a position series took them on clean
+    # j1 and j4, a cogging on the linear stage: steps of 15 % of Fc, seeds 5501-5506)
+    step = torque_step(rec, ident.data.coulomb)
+    stepped = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff, tau_step=step)[0] \
+        if step > 0 and not add else None
     floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
     # the effects see how the torque was read (held or sampled) as identification decided it
     meta = dict(rec.meta, torque_hold=ident.fit["torque_hold"])
 
     def run():
-        diag = diagnose(data, ident.result, meta, ident.inertia, add=add, auto=not add, twin=twin)
+        diag = diagnose(data, ident.result, meta, ident.inertia, add=add, auto=not add, twin=twin,
+                        stepped_twin=stepped)
         diag.replay_rms, diag.noise_floor = replay_rms, floor
         if add:
             return diag

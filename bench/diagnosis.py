@@ -248,13 +248,16 @@ def levels_lost(before: FitResult | None, after: FitResult | None) -> list[str]:
 
 def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
              add: list[str] | None = None, max_steps: int = MAX_STEPS, auto: bool = True,
-             twin: FitData | None = None) -> Diagnosis:
+             twin: FitData | None = None, stepped_twin: FitData | None = None) -> Diagnosis:
     """``add``: effects to add, in order, whatever their significance; without ``add`` (and
     with ``auto``) keep adding the best significant effect until none is left.  ``twin``: the
     record replayed through a perfect model; an effect must explain clearly more of the
-    record than of it (``ARTIFACT_RATIO``)."""
+    record than of it (``ARTIFACT_RATIO``) — of ``stepped_twin`` instead when given, the
+    replay read through a coarse torque reading's steps, while the chain's own error
+    (``Context.chain_mse``) stays the exact twin's."""
     replay = _Replay(twin, baseline, meta, inertia) if twin is not None and auto and not add else None
     chain = replay.cur.rms ** 2 if replay is not None else 0.0
+    judge = replay if replay is None or stepped_twin is None else _Replay(stepped_twin, baseline, meta, inertia)
     artifact: dict[str, float] = {}
     forced = [get(n) for n in (add or [])]
     if len({e.name for e in forced}) != len(forced):
@@ -286,7 +289,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 sc.significant = False
             elif sc.significant and replay is not None:
                 if sc.effect not in artifact:
-                    artifact[sc.effect] = replay.explains(get(sc.effect))
+                    artifact[sc.effect] = judge.explains(get(sc.effect))
                 if sc.mse_before - sc.mse_after < ARTIFACT_RATIO * artifact[sc.effect]:
                     sc.significant = False
         screens.sort(key=lambda s: s.score)

@@ -8,10 +8,10 @@ learner on the joint's state predicts them as well as it predicts physics.
 
 So the record is replayed through a perfect model: the measured motion, smoothed, is taken as
 the truth; the identified model gives the friction along it and eq. 5 the torque that would
-have moved the joint so; the motion is quantised at the record's own encoder resolution (and,
-for the verdict on what is left, the torque in the torque reading's own steps when they are
-coarse: a drive's per-mille of its rated torque, an ADC's count); and the result goes through
-the same conditioning and comparison.  What that residual holds is what a perfect model
+have moved the joint so; the motion is quantised at the record's own encoder resolution (and
+the torque, when its reading's steps are coarse — a drive's per-mille of its rated torque, an
+ADC's count — in a second twin read through them); and the result goes through the same
+conditioning and comparison.  What that residual holds is what a perfect model
 leaves on this record with this encoder and this torque reading: a floor for "structured".
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ from bench.signals import filtfilt, second_difference
 
 
 # A torque reading's steps are coarse beyond 5 % of Fc: there clean joints were called
-# "unexplained" with a twin read exactly (steps of 10-20 %, tuning seeds 1361, 1370-1375);
+# "unexplained" against a twin read exactly (steps of 10-20 %, tuning seeds 1361, 1370-1375);
 # below it a clean joint's quantised reading left no structure a learner took for physics
 # (1362-1365, 1741-1779), while a twin read in 3 % steps left 0.2 % of Fc, a floor under which
 # four library effects absorbing a saturating torque constant on j1 passed as the story (1381).
@@ -36,7 +36,8 @@ COARSE_TORQUE = 0.05
 
 
 def torque_step(rec: Record, fc: float) -> float:
-    """The torque reading's resolution when it is coarse (``COARSE_TORQUE`` of ``fc``), else 0."""
+    """The torque reading's resolution when it is coarse (``COARSE_TORQUE`` of ``fc``, the Coulomb
+    level the sliding check reads off the data: a degenerate fit's Fc can be near 0), else 0."""
     step = rec.reading.get("resampling", {}).get("torque_resolution")
     step = reading_resolution(np.asarray(rec.tau)) if step is None else step
     return step if step > COARSE_TORQUE * abs(fc) else 0.0
