@@ -11,8 +11,8 @@ the truth; the identified model gives the friction along it and eq. 5 the torque
 have moved the joint so; the motion is quantised at the record's own encoder resolution (and
 the torque, when its reading's steps are coarse — a drive's per-mille of its rated torque, an
 ADC's count — in a second twin read through them); and the result goes through the same
-conditioning and comparison.  What that residual holds is what a perfect model
-leaves on this record with this encoder and this torque reading: a floor for "structured".
+conditioning and comparison.  What that residual holds is what a perfect model leaves on
+this record with this encoder and this torque reading: a floor for "structured".
 """
 from __future__ import annotations
 
@@ -27,11 +27,10 @@ from bench.resample import reading_resolution
 from bench.signals import filtfilt, second_difference
 
 
-# A torque reading's steps are coarse beyond 5 % of Fc: there clean joints were called
-# "unexplained" against a twin read exactly (steps of 10-20 %, tuning seeds 1361, 1370-1375);
-# below it a clean joint's quantised reading left no structure a learner took for physics
-# (1362-1365, 1741-1779), while a twin read in 3 % steps left 0.2 % of Fc, a floor under which
-# four library effects absorbing a saturating torque constant on j1 passed as the story (1381).
+# A torque reading's steps count beyond 5 % of the Coulomb level: at 10-20 % clean joints were
+# called "unexplained" against a twin read exactly (tuning seeds 1361, 1370-1375); at 1.5-3.5 %
+# (1362-1365) and 3 % (1741-1779) a clean joint's stepped reading left no structure a learner
+# took for physics, so finer steps leave the analysis as it was.
 COARSE_TORQUE = 0.05
 
 

@@ -9,9 +9,9 @@ from bench.records import Record
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
                       "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
                       "motion after each scored from the joint's first sliding")
-# A torque reading in steps (``perfect_model.COARSE_TORQUE``, 5 % of Fc) of 10 % of Fc moved the
-# identified Fc by up to 5 %, of 20 % by up to 13 % (reading noise 0.5-3 % of Fc, too little to
-# dither the steps; tuning seeds 1370-1375, 1764-1767); at 1.5-3.5 % it stayed within 0.7 %
+# Shown beyond ``perfect_model.COARSE_TORQUE`` (5 % of the Coulomb level): steps of 10 % of Fc
+# moved the identified Fc by up to 5 %, of 20 % by up to 13 % (reading noise 0.5-3 % of Fc, too
+# little to dither them; tuning seeds 1370-1375, 1764-1767); of 1.5-3.5 % by at most 0.7 %
 # (1362-1365).
 COARSE_TORQUE_WARNING = ("the torque column sits on steps of {step:.3g} {unit}, {share:.2g} % of the "
                          "Coulomb level (a drive's per-mille of its rated torque, an ADC's count): the "
