@@ -192,8 +192,15 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
             diag = _diagnose(ident, rec, add)
         if diag is not None and not add and cutoff is None and not names_a_gear(diag):
             ident, diag = _wider_if_resonant(ident, diag, rec, name)
-        if diag is not None and not add and step > 0:
-            _count_torque_steps(diag, ident, rec, step)
+        if diag is not None:
+            # the verdict on what is left counts a coarse torque reading's steps: a perfect
+            # model read through them leaves a structure of its own.  Only the verdict: as the
+            # floor while absorbers are weeded out (drop_absorbers) and as the chain's error in
+            # an effect's own-physics checks, it let library effects that absorbed physics
+            # outside the library stand as the story (a saturating torque constant told as
+            # backlash on j2 and position-dependent friction on j4, tuning seeds 1382, 1384,
+            # steps of 10 % of Fc)
+            diag.replay_rms = max(diag.replay_rms, diag.stepped_replay_rms)
         if diag is not None:
             diag.beyond = None                 # served its purpose; its fits hold memory
         _check_finite(ident, diag)
@@ -238,19 +245,6 @@ def fit_errors():
         raise InputError(f"the fit did not converge: {e.__class__.__name__}: {' '.join(str(e).split())[:200]}") from None
 
 
-def _count_torque_steps(diag: Diagnosis, ident: Identification, rec: Record, step: float) -> None:
-    """The verdict on what is left counts a coarse torque reading's steps (``perfect_model.
-    COARSE_TORQUE``): a perfect model read through them leaves a structure of its own.  Only
-    the verdict: were it the floor while absorbers are weeded out (``drop_absorbers``) and the
-    chain's error in an effect's own-physics checks, library effects that absorbed physics
-    outside the library stood as the whole story (a saturating torque constant taken for
-    backlash on j2 and position-dependent friction on j4, tuning seeds 1382, 1384, steps of
-    10 % of Fc)."""
-    data = ident.data
-    twin, residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff, tau_step=step)
-    diag.replay_rms = max(diag.replay_rms, float(np.sqrt(np.mean(residual[twin.mask] ** 2))))
-
-
 def _check_finite(ident: Identification, diag: Diagnosis | None) -> None:
     fits = [ident.result] + ([diag.model.result] if diag is not None else [])
     values = {k: v for r in fits for k, v in {**r.values, "rms": r.rms, "nrmse": r.nrmse}.items()}
@@ -269,8 +263,11 @@ def _diagnose(ident: Identification, rec: Record, add):
     # record than of a perfect model read through them (a position series took them on clean
     # j1 and j4, a cogging on the linear stage: steps of 15 % of Fc, seeds 5501-5506)
     step = torque_step(rec, ident.data.coulomb)
-    stepped = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff, tau_step=step)[0] \
-        if step > 0 and not add else None
+    stepped, stepped_rms = None, 0.0
+    if step > 0 and not add:
+        stepped, stepped_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff,
+                                           tau_step=step)
+        stepped_rms = float(np.sqrt(np.mean(stepped_residual[stepped.mask] ** 2)))
     floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
     # the effects see how the torque was read (held or sampled) as identification decided it
     meta = dict(rec.meta, torque_hold=ident.fit["torque_hold"])
@@ -278,7 +275,7 @@ def _diagnose(ident: Identification, rec: Record, add):
     def run():
         diag = diagnose(data, ident.result, meta, ident.inertia, add=add, auto=not add, twin=twin,
                         stepped_twin=stepped)
-        diag.replay_rms, diag.noise_floor = replay_rms, floor
+        diag.replay_rms, diag.noise_floor, diag.stepped_replay_rms = replay_rms, floor, stepped_rms
         if add:
             return diag
 

@@ -131,6 +131,7 @@ class Diagnosis:
     cv: CrossValidation | None = None   # the held-out motion segments everything was scored on
     final_predictability: dict | None = None   # of the final residual, once assessed
     replay_rms: float = 0.0        # what a perfect model leaves on this record (bench.perfect_model)
+    stepped_replay_rms: float = 0.0  # the same read through a coarse torque reading's steps (0: none)
     chain_mse: float = 0.0         # the same, held out and squared (``Context.chain_mse``)
     noise_floor: float = 0.0       # the record's measurement-noise floor (bench.unexplained)
     start: Model | None = None     # the baseline (LuGre alone)

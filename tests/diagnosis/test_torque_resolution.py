@@ -24,9 +24,9 @@ def _credited(doc):
     return [d["effect"] for d in doc["diagnosis"] if d["significant"]]
 
 
-def _coarse(joint, seed, effects=()):
+def _coarse(joint, seed, effects=(), step=COARSE):
     spec = PRESETS[joint]
-    rec = recording_for(spec, "torque-reading noise only", seed).with_(torque_resolution=COARSE * spec.friction.Fc)
+    rec = recording_for(spec, "torque-reading noise only", seed).with_(torque_resolution=step * spec.friction.Fc)
     record, _ = make_record(spec, rec, seed, effects=effects)
     return spec, analyze_record(record).report()
 
@@ -52,9 +52,7 @@ def test_clean_joints_read_in_steps_of_15_percent_get_no_library_story():
     `position_dependent_friction` on j4; now none."""
     wrong = []
     for i, joint in enumerate(JOINTS):
-        spec = PRESETS[joint]
-        rec = recording_for(spec, "torque-reading noise only", 5510 + i).with_(torque_resolution=0.15 * spec.friction.Fc)
-        doc = analyze_record(make_record(spec, rec, 5510 + i)[0]).report()
+        spec, doc = _coarse(joint, 5510 + i, step=0.15)
         if _credited(doc) or doc["final"]["effects"] or doc["unexplained"]["structured"]:
             wrong.append((joint, 5510 + i, _credited(doc), doc["unexplained"]["evidence"][:120]))
     assert not wrong, wrong
