@@ -64,3 +64,31 @@ def test_simulate_refuses_a_rest_that_leaves_no_motion(tmp_path):
     lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "--rest" in lines[0] and "Traceback" not in out.stderr, out.stderr
     assert not (tmp_path / "r.csv").exists()
+
+
+@pytest.mark.parametrize("joint, seed, share", [("j1", 5516, 0.5), ("j3", 5517, 0.7), ("linear", 5518, 0.9)])
+def test_a_rest_split_by_a_logger_stall_is_one_standstill(joint, seed, share):
+    """A robot holding its pose does not move while its logger stalls.  Judged apart, the rest
+    before a stall was shorter than the length rule and stayed in the motion's segment, where
+    at 100-125 Hz it bent the fit (tuning seed 1407 on j1: Fs fitted 0).  Here a 0.2 s stall
+    lands after the motion stopped, at a ``share`` of the length rule: all of that rest is cut
+    but the half reversal interval kept beside the motion (``KEEP``)."""
+    from bench.standstill import KEEP, LONGER_THAN, reversal_interval
+    spec = PRESETS[joint]
+    rec, _ = make_record(spec, recording_for(spec, "robot joint log", seed).with_(rest=REST), seed,
+                         duration=DURATION)
+    t = np.asarray(rec.t)
+    stopped = DURATION - REST
+    into_rest = share * LONGER_THAN * reversal_interval(t, np.asarray(rec.q))
+    stall = (t > stopped + into_rest) & (t < stopped + into_rest + 0.2)
+    rec = type(rec)(t=t[~stall], tau=np.asarray(rec.tau)[~stall], q=np.asarray(rec.q)[~stall],
+                    qd=None if rec.qd is None else np.asarray(rec.qd)[~stall], meta=dict(rec.meta))
+    interval = reversal_interval(np.asarray(rec.t), np.asarray(rec.q))
+    assert KEEP * interval < into_rest < LONGER_THAN * interval     # too short on its own
+    g = on_grid(rec)
+    kept = np.asarray(g.t)
+    rest_kept = kept[(kept > stopped) & (kept < DURATION - 1.0)]
+    # the rest kept after the motion: the KEEP share of an interval, plus the motion's own
+    # stop (the envelope ends at `stopped`, the joint settles within a few tenths of a second)
+    assert rest_kept.max(initial=stopped) < stopped + KEEP * interval + 0.6, (
+        rest_kept.max(), g.reading["resampling"]["standstills_cut"])
