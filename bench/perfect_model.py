@@ -13,6 +13,12 @@ the torque, when its reading's steps are coarse — a drive's per-mille of its r
 ADC's count — in a second twin read through them); and the result goes through the same
 conditioning and comparison.  What that residual holds is what a perfect model leaves on
 this record with this encoder and this torque reading: a floor for "structured".
+
+A reading's own noise dithers its steps: read through them, a noisy torque's expected value is
+smooth again, and what its steps leave averages out in the comparison band.  So the stepped
+twin is read as its expected value under the dither that makes it as rough as the record
+(``dither``, ``expected_reading``): no noise of its own, only the structure a perfect model
+read through these steps would leave on average.
 """
 from __future__ import annotations
 
@@ -47,6 +53,53 @@ def _on_grid(x: np.ndarray, res: float) -> np.ndarray:
     return np.round(x / res) * res if res > 0 else x
 
 
+def expected_reading(x: np.ndarray, step: float, sigma: float) -> np.ndarray:
+    """E[step * round((x + n) / step)] for Gaussian n of std ``sigma``: x plus the rounding's
+    periodic error, each harmonic m damped by the noise's characteristic function,
+    exp(-2 pi^2 m^2 sigma^2 / step^2).  sigma 0: the plain steps."""
+    if step <= 0:
+        return x
+    if sigma < 0.02 * step:      # the first 30 harmonics undamped: the steps themselves
+        return _on_grid(x, step)
+    out = np.array(x, dtype=float)
+    phase = 2.0 * np.pi * out / step
+    for m in range(1, 200):
+        gain = np.exp(-2.0 * (np.pi * m * sigma / step) ** 2) / (np.pi * m)
+        if gain < 1e-4:
+            break
+        out += (-1) ** m * step * gain * np.sin(m * phase)
+    return out
+
+
+def _roughness(pieces) -> float:
+    d = [np.diff(np.asarray(x, dtype=float), 4) for x in pieces if len(x) > 4]
+    return float(np.sqrt(np.mean(np.concatenate(d) ** 2))) if d else 0.0
+
+
+def dither(record: list, twin: list, step: float) -> float:
+    """The reading noise (std) that makes the twin's torque, read through ``step``, as rough as
+    the record's at its own samples (RMS of fourth differences, per gap-free piece).  Anything
+    fast in the torque before its reading dithers the steps — the sensor's noise, a controller
+    answering a disturbance — and the fourth differences see all of it, the steps' own
+    jumps included.  0 when the twin's plain steps are already as rough; at most one step
+    (beyond it the steps are smoothed out: the series' first harmonic is damped to 3e-9)."""
+    target = _roughness(record)
+    rng = np.random.default_rng(0)
+    noise = [rng.standard_normal(len(x)) for x in twin]
+
+    def rough(sigma):
+        return _roughness([_on_grid(x + sigma * n, step) for x, n in zip(twin, noise)])
+    if rough(0.0) >= target:
+        return 0.0
+    lo, hi = 0.0, step
+    if rough(hi) <= target:
+        return hi
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if rough(mid) < target else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
 def replay(rec: Record, data: FitData, values: dict, inertia: float, cutoff: float,
            name: str = "record", tau_step: float = 0.0) -> tuple[FitData, np.ndarray]:
     """The record replayed through the identified LuGre model (see the module docstring), its
@@ -70,7 +123,10 @@ def replay(rec: Record, data: FitData, values: dict, inertia: float, cutoff: flo
         q, tau = through_logger(layout, rec, q_true, friction, inertia, tau_step)
     else:
         q = _on_grid(q_true, reading_resolution(rec.q))
-        tau = _on_grid(tau, tau_step)
+        if tau_step > 0:
+            bounds = rec.segment_bounds()
+            sigma = dither([rec.tau[a:b] for a, b in bounds], [tau[a:b] for a, b in bounds], tau_step)
+            tau = expected_reading(tau, tau_step, sigma)
     twin = Record(t=rec.t, tau=tau, q=q, meta=meta, segments=rec.segments, step=rec.step)
     twin_data, _ = prepare(twin, inertia, cutoff, name, "sample")
     twin_data.mask = data.mask if len(data.mask) == len(twin_data.mask) else twin_data.mask
@@ -89,6 +145,7 @@ def through_logger(layout, rec: Record, q_true: np.ndarray, friction: np.ndarray
     those times, as a logger reads it, not interpolated from the grid."""
     res = reading_resolution(layout.q)
     q_out, tau_out = np.empty_like(q_true), np.empty_like(q_true)
+    raw = []
     for i, (a, b) in enumerate(rec.segment_bounds()):
         ra, rb = layout.ranges[i]
         ts, grid = layout.t[ra:rb], rec.t[a:b]
@@ -97,9 +154,11 @@ def through_logger(layout, rec: Record, q_true: np.ndarray, friction: np.ndarray
             q_raw, acc = spline(ts), spline(ts, 2)
         else:
             q_raw, acc = np.interp(ts, grid, q_true[a:b]), np.zeros(len(ts))
-        tau_raw = inertia * acc + np.interp(ts, grid, friction[a:b])
-        q_raw = _on_grid(q_raw, res)
-        tau_raw = _on_grid(tau_raw, tau_step)
-        piece = layout.resample(i, q_raw, tau_raw)
+        raw.append((i, _on_grid(q_raw, res), inertia * acc + np.interp(ts, grid, friction[a:b])))
+    sigma = 0.0
+    if tau_step > 0 and layout.tau is not None:
+        sigma = dither([layout.tau[slice(*layout.ranges[i])] for i, _, _ in raw], [x for _, _, x in raw], tau_step)
+    for (i, q_raw, tau_raw), (a, b) in zip(raw, rec.segment_bounds()):
+        piece = layout.resample(i, q_raw, expected_reading(tau_raw, tau_step, sigma))
         q_out[a:b], tau_out[a:b] = piece["q"], piece["tau"]
     return q_out, tau_out

@@ -103,7 +103,7 @@ def regularise(rec: Record, name: str = "record") -> Record:
             dropped.append(_segment(ts))
         else:
             ranges.append((int(a), int(b)))
-    layout = Layout(t=t, q=cols["q"], h=h, ranges=ranges, held=held)
+    layout = Layout(t=t, q=cols["q"], h=h, ranges=ranges, held=held, tau=cols["tau"])
     pieces = [layout.resample(i, cols["q"][a:b], cols["tau"][a:b], None if "qd" not in cols else cols["qd"][a:b])
               for i, (a, b) in enumerate(ranges)]
     if not pieces:
@@ -135,6 +135,7 @@ class Layout:
     h: float
     ranges: list
     held: bool
+    tau: np.ndarray | None = None      # the logged torque (its reading's dither, bench.perfect_model)
 
     def grid(self, i: int) -> np.ndarray:
         a, b = self.ranges[i]
