@@ -7,7 +7,7 @@ import numpy as np
 
 from bench import terms
 from bench.effects.base import check_known, explained_text, number
-from bench.effects.periodic import PositionSeries, format_length
+from bench.effects.periodic import PositionSeries, format_length, torque_locked
 from bench.errors import InputError
 
 
@@ -32,7 +32,7 @@ class Cogging(PositionSeries):
         return (f"residual is periodic in position with pitch "
                 f"{format_length(self.pitch(values), ctx.position_unit)}, the same in both directions "
                 f"of motion (cogging, amplitude {self.fundamental(values):.3g} {ctx.torque_unit}); "
-                f"{explained_text(explained)}")
+                f"{explained_text(explained)}{torque_locked(ctx)}")
 
     def inject(self, kw, ev, spec):
         check_known(kw, ("amplitude", "pitch", "phase", "h2", "h3"), self.name)

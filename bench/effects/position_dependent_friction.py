@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from bench import terms
 from bench.effects.base import Context, check_known, explained_text, number
-from bench.effects.periodic import PositionSeries, format_length
+from bench.effects.periodic import PositionSeries, format_length, torque_locked
 from bench.errors import InputError
 
 
@@ -29,7 +29,7 @@ class PositionDependentFriction(PositionSeries):
         return (f"friction level varies by ±{self.fundamental(values):.0%} periodically in position, "
                 f"pitch {format_length(self.pitch(values), ctx.position_unit)}, and the error changes "
                 f"sign with the direction of motion (position-dependent friction); "
-                f"{explained_text(explained)}")
+                f"{explained_text(explained)}{torque_locked(ctx)}")
 
     def inject(self, kw, ev, spec):
         check_known(kw, ("amplitude", "pitch", "phase"), self.name)

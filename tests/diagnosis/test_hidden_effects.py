@@ -212,3 +212,23 @@ def test_a_drift_no_warm_up_makes_says_its_refit_ran_away():
     assert "ran away" not in drift.evidence(warm, 0.3, ctx)
     assert "ran away" in drift.evidence(dict(warm, th_visc=3e6), 0.0, ctx)
     assert "ran away" in drift.evidence(dict(warm, th_gain=-2.0, th_tau=0.1), 0.0, ctx)
+
+
+def test_a_position_series_says_when_the_record_cannot_tell_position_from_torque():
+    """Under one torque sine the torque is a function of position and direction, so physics
+    that depends on the torque is too: a saturating torque constant was credited as
+    position-dependent friction there (README known limits).  The evidence says so on a sine
+    test and not on a two-tone record, where the two are told apart."""
+    from virtual_drives.conditions import make_record
+    from virtual_drives.scenarios import random_effects
+    caveat = "function of position and direction"
+    spec = PRESETS["j2"]
+    sim, texts = simulate_scenario(spec, ["position_dependent_friction"], 5521)
+    top = analyze_record(sim.record).report()["diagnosis"][0]
+    assert top["effect"] == "position_dependent_friction" and top["significant"], (texts, top)
+    assert caveat in top["evidence"] and "two tones" in top["evidence"], top["evidence"]
+    texts = random_effects(spec, ["position_dependent_friction"], 5522)
+    rec, _ = make_record(spec, "two-tone torque", 5522, effects=texts)
+    top = analyze_record(rec).report()["diagnosis"][0]
+    assert top["effect"] == "position_dependent_friction" and top["significant"], (texts, top)
+    assert caveat not in top["evidence"], top["evidence"]
