@@ -82,8 +82,15 @@ def regularise(rec: Record, name: str = "record") -> Record:
     still, spans = standstill.standstills(t, cols["q"], pieces_raw)
     if still:
         report["standstills_cut"] = [{"t_start": float(t[a]), "t_end": float(t[b - 1])} for a, b in still]
-        # the time between the samples either side of each cut
-        report["standstill_time"] = float(sum(t[min(b, len(t) - 1)] - t[max(a - 1, 0)] - h for a, b in still))
+        # the time between the samples either side of each cut; cuts that meet at a logger's
+        # stall (bench.standstill: one standstill) count the stall once
+        joined: list[list[int]] = []
+        for a, b in still:
+            if joined and joined[-1][1] == a:
+                joined[-1][1] = b
+            else:
+                joined.append([a, b])
+        report["standstill_time"] = float(sum(t[min(b, len(t) - 1)] - t[max(a - 1, 0)] - h for a, b in joined))
         pieces_raw = _without(pieces_raw, still)
     if even and not still:
         out = Record(t=t, tau=cols["tau"], q=cols["q"], qd=cols.get("qd"), meta=meta)

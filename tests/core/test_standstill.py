@@ -92,3 +92,10 @@ def test_a_rest_split_by_a_logger_stall_is_one_standstill(joint, seed, share):
     # stop (the envelope ends at `stopped`, the joint settles within a few tenths of a second)
     assert rest_kept.max(initial=stopped) < stopped + KEEP * interval + 0.6, (
         rest_kept.max(), g.reading["resampling"]["standstills_cut"])
+    # the stall is counted once in the standstill's time: no more than the rests' cut spans
+    report = g.reading["resampling"]
+    spans = 0.0
+    for rest in ([c for c in report["standstills_cut"] if c["t_end"] < stopped],
+                 [c for c in report["standstills_cut"] if c["t_start"] > stopped]):
+        spans += max(c["t_end"] for c in rest) - min(c["t_start"] for c in rest) + 2 * report["median_step"]
+    assert report["standstill_time"] <= spans, (report["standstill_time"], spans)
