@@ -80,3 +80,20 @@ def test_a_pause_between_two_moves_is_cut_too():
         if credited or doc["unexplained"]["structured"] or not _within(doc, spec):
             misses.append((joint, seed, credited, {k: doc["parameters"][k] for k in ("Fc", "Fs", "sigma2")}))
     assert len(misses) <= 1, misses
+
+
+def test_a_robot_joint_log_at_100_to_125_hz_with_rests_names_nothing():
+    """The same arm published at 100-125 Hz (ROS joint_states, a UR's RTDE stream), at rest
+    12 s either side of its motion, the logger stalling now and then — inside the rests too,
+    where a stall once split a standstill into pieces too short to cut (tuning seed 1407:
+    Fs 0.0001x on j1).  Nothing named and nothing left; the parameters within 5 % or honestly
+    uncertain, but for the rotary motor (its slow-log gap, README known limits).  When written
+    (2026-11-27): 8 of 8, j3's Fc -13.2 % within its reported errors, the rotary motor's -12.4 %;
+    without the stall merge too, j1 on 5523 then -5.0 % (now -1.4 %)."""
+    misses = []
+    for i, joint in enumerate(JOINTS):
+        spec, doc = _resting_log(joint, 5523 + i, "robot joint log at 100-125 Hz")
+        credited = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
+        if credited or doc["unexplained"]["structured"] or (joint != "rotary" and not _within(doc, spec)):
+            misses.append((joint, 5523 + i, credited, {k: doc["parameters"][k] for k in ("Fc", "Fs", "sigma2")}))
+    assert len(misses) <= 1, misses
