@@ -3,6 +3,8 @@
 so the torque changes sign with the direction of motion, unlike cogging."""
 from __future__ import annotations
 
+import numpy as np
+
 from bench import terms
 from bench.effects.base import Context, check_known, explained_text, number
 from bench.effects.periodic import PositionSeries, format_length, torque_locked
@@ -26,7 +28,12 @@ class PositionDependentFriction(PositionSeries):
         return 1e-3
 
     def evidence(self, values, explained, ctx):
-        return (f"friction level varies by ±{self.fundamental(values):.0%} periodically in position, "
+        periods = float(np.ptp(ctx.data.c.q)) / self.pitch(values)
+        # under two periods in the travel nothing shows that it repeats (a saturating torque
+        # constant under one sine was fitted with 1.3-1.7: README known limits)
+        how = ("periodically in position" if periods >= 2.0 else
+               f"along the travel ({periods:.2g} periods of it in the travel: whether it repeats is not seen)")
+        return (f"friction level varies by ±{self.fundamental(values):.0%} {how}, "
                 f"pitch {format_length(self.pitch(values), ctx.position_unit)}, and the error changes "
                 f"sign with the direction of motion (position-dependent friction); "
                 f"{explained_text(explained)}{torque_locked(ctx)}")
