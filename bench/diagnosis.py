@@ -43,7 +43,8 @@ def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
 
 
 def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
-          inertia: float, ctx: Context | None = None, rounds: int = 3) -> tuple[Model, FitResult]:
+          inertia: float, ctx: Context | None = None, rounds: int = 3,
+          others: list[tuple[dict, dict]] = ()) -> tuple[Model, FitResult]:
     """Fit LuGre, the effects already added and ``effect`` together.
 
     A missing effect distorts the LuGre fit it was missing from, sometimes into another
@@ -51,40 +52,45 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
     besides starting from the current values, LuGre is re-identified (Section III + start
     search) on the friction estimate with the effects' contribution removed, for the
     screened effect size and for the effect's own direct estimate if it has one; the
-    cleaning is repeated with the refitted effect values until the cost stops falling."""
-    new = _effect_params(effect, init, beta)
-    others = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
+    cleaning is repeated with the refitted effect values until the cost stops falling.
+
+    ``others``: more screened starts of the effect (init, beta), each refitted the same way;
+    the lowest cost of all wins (``Effect.restarts``)."""
+    fitted = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
               for p in model.params if p.name not in LUGRE_KEYS]
     appliers = model.appliers + [effect.apply]
-    screened = dict(model.values, **{p.name: p.value for p in new})
     direct = effect.direct_estimate(ctx) if ctx is not None else None
-    candidates = [screened] + ([dict(screened, **direct)] if direct else [])
     best = None
 
-    def attempt(start, values):
+    def attempt(new, start, values):
         nonlocal best
         lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
                  for k in LUGRE_KEYS]
-        eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in others + new]
+        eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in fitted + new]
         res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=40)
         if best is None or res.cost < 0.99 * best[1].cost:
             best = (lugre + eff, res)
             return True
         return False
 
-    attempt({k: model.values[k] for k in LUGRE_KEYS}, screened)
-    if direct and all(k in direct for k in LUGRE_KEYS):   # an estimate with its own LuGre
-        attempt({k: direct[k] for k in LUGRE_KEYS}, dict(screened, **direct))
-    # always re-identify as well: the screening's linearised promise can be far worse than
-    # the true optimum, so a local refit that "meets" it may still sit in the wrong basin
-    for values in candidates:
-        for _ in range(rounds):
-            improved = False
-            for start in _cleaned_starts(data, values, appliers, inertia):
-                improved |= attempt(start, values)
-            if not improved:
-                break
-            values = dict(best[1].values)
+    for i, (init_i, beta_i) in enumerate([(init, beta), *others]):
+        new = _effect_params(effect, init_i, beta_i)
+        screened = dict(model.values, **{p.name: p.value for p in new})
+        own = direct if i == 0 else None      # the direct estimate does not depend on the start
+        candidates = [screened] + ([dict(screened, **own)] if own else [])
+        attempt(new, {k: model.values[k] for k in LUGRE_KEYS}, screened)
+        if own and all(k in own for k in LUGRE_KEYS):   # an estimate with its own LuGre
+            attempt(new, {k: own[k] for k in LUGRE_KEYS}, dict(screened, **own))
+        # always re-identify as well: the screening's linearised promise can be far worse than
+        # the true optimum, so a local refit that "meets" it may still sit in the wrong basin
+        for values in candidates:
+            for _ in range(rounds):
+                improved = False
+                for start in _cleaned_starts(data, values, appliers, inertia):
+                    improved |= attempt(new, start, values)
+                if not improved:
+                    break
+                values = dict(best[1].values)
     params, res = best
     owner = dict(model.owner, **{p.name: effect.name for p in new})
     return Model(values=res.values, effects=model.effects + [effect], params=params, result=res,
@@ -307,7 +313,8 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         improved_base = None
         for sc in contenders:
             effect = get(sc.effect)
-            new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx)
+            new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx,
+                                 others=sc.others[:effect.restarts])
             if not forced_step(sc, add) and not effect.credible(new_model.values, cur.ctx):
                 rejected.add(sc.effect)
                 continue

@@ -65,6 +65,7 @@ class Screen:
     score: float
     significant: bool
     size: float = 0.0           # the effect's fitted term at its largest (99th percentile of |term|)
+    others: list = field(default_factory=list)   # the other variants' (init, beta), best first
 
 
 class CrossValidation:
@@ -197,7 +198,7 @@ def model_columns(data: FitData, model: Model, base: np.ndarray, idx: np.ndarray
 def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossValidation,
            sse_before: np.ndarray, across_before: float, n_eff: float) -> Screen | None:
     """Best variant of ``effect`` by penalised held-out error."""
-    best = None
+    screens = []
     counts = cv.counts()
     mse_before = float(sse_before.sum() / counts.sum())
     for init in effect.variants(ctx):
@@ -222,6 +223,10 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
                    explained >= MIN_EXPLAINED and consistent
                    and (across >= MIN_EXPLAINED_ACROSS or not effect.direction_test),
                    size=float(np.percentile(np.abs(term), 99)))
-        if best is None or s.score < best.score:
-            best = s
+        screens.append(s)
+    if not screens:
+        return None
+    screens.sort(key=lambda s: s.score)
+    best = screens[0]
+    best.others = [(s.init, s.beta) for s in screens[1:]]
     return best

@@ -125,6 +125,9 @@ class Effect:
     # the effect reshapes the sliding map that Fc, Fs and sigma2 describe: credited only if its
     # refit leaves those as well determined as they were (``bench.diagnosis.levels_lost``)
     reshapes_levels: bool = False
+    # how many of its other screened variants the refit starts from too (the lowest cost wins):
+    # where the screening's pick is made against a LuGre fit the missing effect bent
+    restarts: int = 0
 
     def applicable(self, ctx: Context) -> bool:
         return True

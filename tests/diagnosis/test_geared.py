@@ -170,3 +170,22 @@ def test_backlash_seen_from_the_load_through_a_pc_logger(tmp_path):
     share = doc["final"]["parameters"]["bl_motor"] / PRESETS["j2"].inertia
     at_bound = share < 1.05 * MOTOR_SHARE[0] or share > 0.95 * MOTOR_SHARE[1]
     assert ("not resolved" in top["evidence"]) == at_bound, (share, top["evidence"])
+
+
+@pytest.mark.parametrize("seed,hz,damping", [(5531, 14.5, 0.09), (5532, 15.0, 0.1), (5533, 14.2, 0.085)])
+def test_a_spring_that_bends_the_lugre_fit_is_found_from_another_start(seed, hz, damping):
+    """A 14-15 Hz spring on the linear stage bends the LuGre fit (sigma0 and Fs far off), and
+    against that fit a slow start screens best, whose refit is no credible spring; the refit
+    from every screened start finds it (Effect.restarts).  Fresh seeds: before, 0 of these 3
+    named (1 of 4 at 14.2-15.5 Hz), the verdict "unexplained"."""
+    spec = PRESETS["linear"]
+    ev, *_ = parse_injections([f"joint_flexibility:frequency={hz},damping={damping}"], spec)
+    doc = analyze_record(simulate_record(spec, *spec.excitation, duration=20.0, seed=seed, extra=ev).record).report()
+    top = doc["diagnosis"][0]
+    assert top["effect"] == "joint_flexibility" and top["significant"], doc["diagnosis"][:3]
+    assert doc["final"]["effects"] == ["joint_flexibility"]
+    assert doc["final"]["rms_error"] <= 0.7 * doc["baseline"]["rms_error"]
+    values = doc["final"]["parameters"]
+    assert abs(values["flex_frequency"] / hz - 1) < 0.10, values
+    assert abs(values["flex_load"] / (spec.load_fraction * spec.inertia) - 1) < 0.10, values
+    assert not doc["unexplained"]["structured"], doc["unexplained"]["evidence"]
