@@ -197,7 +197,8 @@ def model_columns(data: FitData, model: Model, base: np.ndarray, idx: np.ndarray
 
 def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossValidation,
            sse_before: np.ndarray, across_before: float, n_eff: float) -> Screen | None:
-    """Best variant of ``effect`` by penalised held-out error."""
+    """Best variant of ``effect`` by penalised held-out error; the others' starts ride along,
+    best first (``Screen.others``, refitted too where ``Effect.restarts`` asks)."""
     screens = []
     counts = cv.counts()
     mse_before = float(sse_before.sum() / counts.sum())
