@@ -134,22 +134,29 @@ def test_a_gear_spring_above_the_comparison_band_is_named_and_measured(joint, se
 
 
 SPRINGS_WITH_FRICTION_BEYOND = [
-    # (joint, seed, the spring in Hz, the share of the inertia beyond it, of the friction):
-    # under one sine such a spring passes for an inertia error or gravity (sigma2 beyond a
-    # spring k acts as an inertia of -sigma2^2 / k), and was told so with nothing left
-    ("j2", 9185, 11.0, 0.5, 0.3),    # inside j2's 12 Hz band
-    ("j1", 9186, 12.0, 0.6, 0.4),    # above j1's 10 Hz band
-    ("j3", 9187, 14.0, 0.6, 0.3),
-    ("j4", 9188, 11.0, 0.6, 0.4),
+    # (joint, seed, the spring in Hz, the share of the inertia beyond it, of the friction, the
+    # damping ratio): under one sine such a spring passes for an inertia error or gravity
+    # (sigma2 beyond a spring k acts as an inertia of -sigma2^2 / k), and was told so with
+    # nothing left
+    ("j2", 9185, 11.0, 0.5, 0.3, 0.05),    # inside j2's 12 Hz band
+    ("j1", 9186, 12.0, 0.6, 0.4, 0.05),    # above j1's 10 Hz band
+    ("j3", 9187, 14.0, 0.6, 0.3, 0.05),
+    ("j4", 9188, 11.0, 0.6, 0.4, 0.05),
+    # a third of the inertia beyond: at the wider band still an inertia error until that
+    # story competed with the friction-beyond pass (bench.analysis._wider_if_resonant)
+    ("j1", 5535, 14.0, 0.3, 0.35, 0.07),
+    ("j3", 5538, 13.5, 0.3, 0.33, 0.09),
 ]
 
 
-@pytest.mark.parametrize("joint,seed,hz,load_share,beyond", SPRINGS_WITH_FRICTION_BEYOND)
-def test_a_gear_spring_with_friction_beyond_it_is_named_not_an_inertia_error(joint, seed, hz, load_share, beyond):
+@pytest.mark.parametrize("joint,seed,hz,load_share,beyond,damping", SPRINGS_WITH_FRICTION_BEYOND)
+def test_a_gear_spring_with_friction_beyond_it_is_named_not_an_inertia_error(joint, seed, hz, load_share, beyond,
+                                                                             damping):
     """Named first and alone, the frequency within 10 %, the friction's share beyond it within
     0.1, the held-out error down by 30 % or more, nothing left, the friction within 5 %."""
     spec = PRESETS[joint]
-    rec, _ = independent_record(spec, seed=seed, flex_hz=hz, load_share=load_share, friction_on_load=beyond)
+    rec, _ = independent_record(spec, seed=seed, flex_hz=hz, flex_damping=damping, load_share=load_share,
+                                friction_on_load=beyond)
     doc = _report(rec)
     top, p = doc["diagnosis"][0], doc["final"]["parameters"]
     assert doc["final"]["effects"] == ["joint_flexibility"] and top["effect"] == "joint_flexibility", doc["diagnosis"][:3]
