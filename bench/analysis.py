@@ -364,8 +364,9 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
                 # a sine: that pass competes, on _diagnose's terms.  j1's 13.35 Hz spring with
                 # 34 % of the friction beyond it was an inertia error (independent simulator,
                 # tuning seed 1663): around it the spring scored 0.26 of what was left, below
-                # MIN_SHARE, so _diagnose's retry did not run.  A true inertia error that gets
-                # here keeps its story (j4, tuning seed 1702: the pass refits the same)
+                # MIN_SHARE, so _diagnose's retry did not run.  True inertia errors that get
+                # here keep their story (j3 1302, j4 1302, 1303, 1702 of 24 on tuning seeds),
+                # at up to 3x the analysis's time
                 with friction_beyond_gear():
                     second = _diagnose(wide, rec, None)
                 if not _left_structured(second, wide.data) and second.final_rms < wide_diag.final_rms:
