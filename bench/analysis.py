@@ -302,7 +302,7 @@ def _diagnose(ident: Identification, rec: Record, add):
     # that only if it leaves nothing and predicts the held-out motion better
     with friction_beyond_gear():
         second = run()
-    if not _left_structured(second, data) and second.final_rms < diag.final_rms:
+    if _beyond_wins(second, diag, data):
         return second
     diag.beyond = second
     return diag
@@ -330,6 +330,12 @@ def _inertia_like_spring(diag: Diagnosis) -> bool:
 def _mimic_without_gear(diag: Diagnosis) -> bool:
     """Was an inertia error or gravity credited, and no gear?"""
     return bool(set(SPRING_MIMICS) & set(diag.model.names())) and not names_a_gear(diag)
+
+
+def _beyond_wins(second: Diagnosis, first: Diagnosis, data) -> bool:
+    """Is the pass with friction beyond the gear kept over the one without it?  Only when it
+    leaves nothing structured and predicts the held-out motion better."""
+    return not _left_structured(second, data) and second.final_rms < first.final_rms
 
 
 def _left_structured(diag: Diagnosis, data) -> bool:
@@ -361,15 +367,15 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
                         wide_diag = _diagnose(wide, rec, None)
             elif probe[1] and wide_diag.beyond is None and _mimic_without_gear(wide_diag):
                 # ...and when it was told, nothing left, as what such a spring passes for under
-                # a sine: that pass competes, on _diagnose's terms.  j1's 13.35 Hz spring with
-                # 34 % of the friction beyond it was an inertia error (independent simulator,
-                # tuning seed 1663): around it the spring scored 0.26 of what was left, below
-                # MIN_SHARE, so _diagnose's retry did not run.  True inertia errors that get
+                # a sine: that pass competes, on _diagnose's terms (_beyond_wins).  j1's
+                # 13.35 Hz spring with 34 % of the friction beyond it was an inertia error
+                # (independent simulator, tuning seed 1663): around it the spring scored 0.26
+                # of what was left, below MIN_SHARE, so _diagnose's retry did not run.  True inertia errors that get
                 # here keep their story (j3 1302, j4 1302, 1303, 1702 of 24 on tuning seeds),
                 # at up to 3x the analysis's time
                 with friction_beyond_gear():
                     second = _diagnose(wide, rec, None)
-                if not _left_structured(second, wide.data) and second.final_rms < wide_diag.final_rms:
+                if _beyond_wins(second, wide_diag, wide.data):
                     wide_diag = second
     except (BenchError, ValueError, ArithmeticError):    # LinAlgError is a ValueError
         return ident, diag
