@@ -8,6 +8,8 @@ from bench.unexplained import rising_map
 from virtual_drives.outside_physics import outside_record
 from virtual_drives.presets import PRESETS
 
+from tests.record_pool import map_records
+
 # the joints each kind is tried on: a direct drive and geared Table II joints (a spring on
 # the linear stage: on a revolute joint over a radian, gravity's sine is a fair description)
 KINDS = {
@@ -32,17 +34,23 @@ KINDS = {
 # (spring 5948 was credited as an exponent), and on fresh seeds 9600-9649 0, 0 and 0; 8900-8949 1, 1 and 0 (README).
 
 
+def outside_verdict(joint: str, kind: str, seed: int, size=None) -> dict:
+    """What a test asks of one outside record's analysis (a pool worker's job)."""
+    rec, text = outside_record(PRESETS[joint], kind, seed, **({"size": size} if size else {}))
+    doc = analyze_record(rec).report()
+    return {"joint": joint, "seed": seed, "text": text,
+            "credited": [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            "final": doc["final"]["effects"], "structured": doc["unexplained"]["structured"],
+            "rising_map": doc["unexplained"]["rising_map"],
+            "evidence": doc["unexplained"]["evidence"][:160]}
+
+
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_outside_physics_is_unexplained_and_nothing_is_credited_in_9_of_10(kind):
-    wrong = []
-    for i in range(10):
-        joint = KINDS[kind][i % len(KINDS[kind])]
-        seed = 5900 + 20 * list(KINDS).index(kind) + i
-        rec, text = outside_record(PRESETS[joint], kind, seed)
-        doc = analyze_record(rec).report()
-        credited = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
-        if credited or doc["final"]["effects"] or not doc["unexplained"]["structured"]:
-            wrong.append((joint, seed, text, credited, doc["unexplained"]["evidence"][:160]))
+    jobs = [(KINDS[kind][i % len(KINDS[kind])], kind, 5900 + 20 * list(KINDS).index(kind) + i)
+            for i in range(10)]
+    wrong = [v for v in map_records(outside_verdict, jobs)
+             if v["credited"] or v["final"] or not v["structured"]]
     assert len(wrong) <= 1, wrong
 
 
@@ -63,12 +71,10 @@ def test_weak_nonlinear_viscous_friction_is_flagged_by_the_map_it_bends():
     alone (README known limits); the bar here is set below those rates, and a library effect
     credited would be a wrong story."""
     flagged, credited = 0, []
-    for i in range(6):
-        joint = ("j1", "j2")[i % 2]
-        rec, text = outside_record(PRESETS[joint], "nonlinear_viscous", 5960 + i, size=(0.01, 0.025))
-        doc = analyze_record(rec).report()
-        credited += [(joint, text, d["effect"]) for d in doc["diagnosis"] if d["significant"]]
-        flagged += doc["unexplained"]["rising_map"] and doc["unexplained"]["structured"]
+    jobs = [(("j1", "j2")[i % 2], "nonlinear_viscous", 5960 + i, (0.01, 0.025)) for i in range(6)]
+    for v in map_records(outside_verdict, jobs):
+        credited += [(v["joint"], v["text"], name) for name in v["credited"]]
+        flagged += bool(v["rising_map"]) and v["structured"]
     assert not credited, credited
     assert flagged >= 2, flagged
 
@@ -81,14 +87,8 @@ def test_friction_rising_with_the_carried_torque_is_never_credited_to_a_library_
     absorbed in 10, set on tuning seeds, failed on these seeds with 3, all on j3).  Tuning seeds
     1101-1104 on these joints: nothing credited once a gear spring must carry 5 % of the inertia
     (before: a 3.3 Hz line with 1.2 % of it on the linear stage)."""
-    credited = []
-    for i in range(10):
-        joint = ("linear", "j2", "j3")[i % 3]
-        rec, text = outside_record(PRESETS[joint], "load_dependent_friction", 5990 + i)
-        doc = analyze_record(rec).report()
-        names = [d["effect"] for d in doc["diagnosis"] if d["significant"]] + doc["final"]["effects"]
-        if names:
-            credited.append((joint, 5990 + i, text, names, doc["unexplained"]["evidence"][:160]))
+    jobs = [(("linear", "j2", "j3")[i % 3], "load_dependent_friction", 5990 + i) for i in range(10)]
+    credited = [v for v in map_records(outside_verdict, jobs) if v["credited"] or v["final"]]
     assert not credited, credited
 
 
