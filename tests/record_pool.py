@@ -8,8 +8,9 @@ test_outside_library in 119 s against 203 s serially (2026-11-28), every report 
 field to the serial run's -- each is the same code on the same record.
 
 Workers are spawned (forking a process whose OpenMP and BLAS pools are running can hang) and
-run one BLAS/OpenMP thread each: left at two, the four threads' spin-waits on two cores made
-the pool slower than the serial run (the ten position-spring records: 113 s against 74 s).
+run one BLAS/OpenMP thread each: left at the libraries' defaults (two threads a worker on two
+cores) the pool was slower than the serial run (the ten position-spring records: 113 s against
+74 s; 51 s with the limit).
 ``job`` must be a module-level function (it is pickled by name); its arguments and result
 plain data.
 """
