@@ -370,9 +370,9 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
                 # a sine: that pass competes, on _diagnose's terms (_beyond_wins).  j1's
                 # 13.35 Hz spring with 34 % of the friction beyond it was an inertia error
                 # (independent simulator, tuning seed 1663): around it the spring scored 0.26
-                # of what was left, below MIN_SHARE, so _diagnose's retry did not run.  True inertia errors that get
-                # here keep their story (j3 1302, j4 1302, 1303, 1702 of 24 on tuning seeds),
-                # at up to 3x the analysis's time
+                # of what was left, below MIN_SHARE, so _diagnose's retry did not run.  True
+                # inertia errors that get here keep their story (j3 1302, j4 1302, 1303, 1702
+                # of 24 on tuning seeds), at up to 3x the analysis's time
                 with friction_beyond_gear():
                     second = _diagnose(wide, rec, None)
                 if _beyond_wins(second, wide_diag, wide.data):

@@ -11,8 +11,9 @@ Workers are spawned (forking a process whose OpenMP and BLAS pools are running c
 run one BLAS/OpenMP thread each: left at the libraries' defaults (two threads a worker on two
 cores) the pool was slower than the serial run (the ten position-spring records: 113 s against
 74 s; 51 s with the limit).
-``job`` must be a module-level function (it is pickled by name); its arguments and result
-plain data.
+
+``job`` must be a module-level function (it is pickled by name); each item is the tuple of its
+arguments, plain data like its result.
 """
 from __future__ import annotations
 
@@ -35,9 +36,9 @@ def _one_thread() -> None:
     threadpool_limits(1)
 
 
-def map_records(job: Callable[..., T], items: Iterable) -> list[T]:
+def map_records(job: Callable[..., T], items: Iterable[tuple]) -> list[T]:
     """``[job(*item) for item in items]``, ``WORKERS`` at a time, in order."""
-    items = [it if isinstance(it, tuple) else (it,) for it in items]
+    items = list(items)
     if WORKERS < 2 or len(items) < 2:
         return [job(*it) for it in items]
     ctx = multiprocessing.get_context("spawn")
