@@ -10,7 +10,7 @@ nothing significant is left, and a backward pass drops effects a later one made 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, p
 from bench.identify import is_identifiable
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
+from bench.rounds import close_calls, close_text, round_winner
 from bench.signals import effective_sample_fraction
 from bench.unexplained import MIN_SIZE_MOSTLY
 
@@ -124,6 +125,9 @@ class Step:
     values: dict
     screens: list[Screen]
     removed: bool = False         # added, then found unnecessary by the backward pass
+    # contenders of the round the criterion could not tell from it (bench.rounds): name and
+    # held-out rms
+    close: list[tuple[str, float]] = field(default_factory=list)
 
 
 @dataclass
@@ -154,7 +158,8 @@ class Diagnosis:
         for s in kept + [s for s in self.steps if s.removed]:
             out.append({"effect": s.effect, "significant": s.significant and not s.removed,
                         "added": not s.removed, "rms_before": s.rms_before, "rms_after": s.rms_after,
-                        "evidence": s.evidence})
+                        "evidence": s.evidence,
+                        "close_call": [{"effect": n, "rms_after": r} for n, r in s.close]})
         for sc in self.remaining:
             if any(s.effect == sc.effect for s in self.steps):
                 continue
@@ -162,7 +167,7 @@ class Diagnosis:
             vals = dict(self.model.values, **{k: sc.init[k] + sc.beta.get(k, 0.0) for k in sc.init})
             out.append({"effect": sc.effect, "significant": sc.significant, "added": False,
                         "rms_before": math.sqrt(sc.mse_before), "rms_after": math.sqrt(sc.mse_after),
-                        "evidence": eff.evidence(vals, sc.explained, self.contexts[-1])})
+                        "evidence": eff.evidence(vals, sc.explained, self.contexts[-1]), "close_call": []})
         return out
 
 
@@ -346,12 +351,14 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 cur = improved_base      # a better LuGre fit, with no new effect
                 contexts[-1] = cur.ctx
             continue  # every contender was rejected: screen again without them
-        _, sc, ev = _round_winner(results)
+        _, sc, ev = round_winner(results)
         explained = 1.0 - (ev.rms / cur.rms) ** 2
+        close = close_calls(results, sc)
         steps.append(Step(effect=sc.effect, significant=sc.significant, forced=forced_step(sc, add),
                           rms_before=cur.rms, rms_after=ev.rms,
-                          evidence=get(sc.effect).evidence(ev.model.values, explained, ev.ctx),
-                          values=dict(ev.model.values), screens=screens))
+                          evidence=get(sc.effect).evidence(ev.model.values, explained, ev.ctx)
+                          + close_text(close, ev.rms),
+                          values=dict(ev.model.values), screens=screens, close=close))
         contexts.append(ev.ctx)
         cur = ev
     if len([s for s in steps if not s.forced]) > 1:
@@ -359,24 +366,6 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         contexts.append(cur.ctx)
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
                      remaining=screens, contexts=contexts, cv=cv, start=start, chain_mse=chain)
-
-
-# Contenders whose criteria lie within this of the best one are not told apart by it (a
-# difference under 2 is "not worth more than a bare mention", Kass & Raftery 1995); the lower
-# held-out error decides between them.  Over a residual of few effective samples three more
-# parameters cost about 9: j3 springs with a third of the friction beyond them (independent
-# simulator, test seeds 5542, 5548) cut the held-out error 18-19 % below an inertia error's
-# and lost by 0.1 and 0.9.  In 88 tuning and fresh analyses of library effects on the six
-# joints (seeds 1960-1965, 5560-5582) the criterion's winner always had the lowest held-out
-# error of its round as well; on 16 tuning springs (1870-1885) the rule swapped an
-# intermediate inertia error for gravity three times and changed no verdict.
-CRITERION_TIE = 2.0
-
-
-def _round_winner(results: list[tuple]) -> tuple:
-    """The (criterion, screen, evaluation) a round adds."""
-    best = min(r[0] for r in results)
-    return min((r for r in results if r[0] <= best + CRITERION_TIE), key=lambda r: r[2].rms)
 
 
 def _without(data: FitData, model: Model, name: str) -> Model:

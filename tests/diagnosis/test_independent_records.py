@@ -169,6 +169,11 @@ def test_a_gear_spring_with_friction_beyond_it_is_named_not_an_inertia_error(joi
     assert doc["final"]["rms_error"] <= 0.7 * doc["baseline"]["rms_error"]
     assert not doc["unexplained"]["structured"], doc["unexplained"]["evidence"]
     assert not _within(doc, spec), _within(doc, spec)
+    # a close call is said, and its runners-up left more held out
+    assert ("a close call" in top["evidence"]) == bool(top["close_call"]), top
+    assert all(c["rms_after"] > top["rms_after"] for c in top["close_call"]), top["close_call"]
+    if seed == 5548:
+        assert [c["effect"] for c in top["close_call"]] == ["inertia_error"], top["close_call"]
 
 
 def test_a_spring_above_the_band_too_small_to_matter_tells_no_story():
