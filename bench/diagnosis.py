@@ -18,9 +18,9 @@ from bench.effects import EFFECTS, Context, Effect, get
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
 from bench.identify import is_identifiable
+from bench.rounds import close_calls, close_text, round_winner
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
-from bench.rounds import close_calls, close_text, round_winner
 from bench.signals import effective_sample_fraction
 from bench.unexplained import MIN_SIZE_MOSTLY
 

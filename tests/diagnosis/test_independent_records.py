@@ -147,7 +147,7 @@ SPRINGS_WITH_FRICTION_BEYOND = [
     ("j1", 5535, 14.0, 0.3, 0.35, 0.07),
     ("j3", 5538, 13.5, 0.3, 0.33, 0.09),
     # ...where the spring's held-out error was 18 % under the inertia error's and the round's
-    # criterion could not tell them apart (bench.diagnosis.CRITERION_TIE)
+    # criterion could not tell them apart (bench.rounds.CRITERION_TIE)
     ("j3", 5548, 15.0, 0.3, 0.33, 0.07),
 ]
 
