@@ -21,16 +21,20 @@ from __future__ import annotations
 CRITERION_TIE = 2.0
 
 
+def _tied(results: list[tuple]) -> list[tuple]:
+    """The contenders within ``CRITERION_TIE`` of the round's best criterion."""
+    best = min(r[0] for r in results)
+    return [r for r in results if r[0] <= best + CRITERION_TIE]
+
+
 def round_winner(results: list[tuple]) -> tuple:
     """The (criterion, screen, evaluation) a round adds."""
-    best = min(r[0] for r in results)
-    return min((r for r in results if r[0] <= best + CRITERION_TIE), key=lambda r: r[2].rms)
+    return min(_tied(results), key=lambda r: r[2].rms)
 
 
 def close_calls(results: list[tuple], winner) -> list[tuple[str, float]]:
-    """The round's other contenders within ``CRITERION_TIE`` of its best criterion."""
-    best = min(r[0] for r in results)
-    return [(s.effect, e.rms) for c, s, e in results if s is not winner and c <= best + CRITERION_TIE]
+    """The round's other contenders the criterion could not tell from ``winner`` (its screen)."""
+    return [(s.effect, e.rms) for _, s, e in _tied(results) if s is not winner]
 
 
 def close_text(close: list[tuple[str, float]], rms: float) -> str:
