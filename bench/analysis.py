@@ -28,7 +28,7 @@ from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.unexplained import assess, level_changes, noise_floor, structured
 from bench.validate import in_range, record_magnitudes
-from bench.wide_band import MIN_SHARE, names_a_gear, wider_band, widened_warning
+from bench.wide_band import MIN_SHARE, SPRING_MIMICS, gear_settled, names_a_gear, wider_band, widened_warning
 
 
 @dataclass
@@ -190,7 +190,7 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)
-        if diag is not None and not add and cutoff is None and not names_a_gear(diag):
+        if diag is not None and not add and cutoff is None and not gear_settled(diag):
             ident, diag = _wider_if_resonant(ident, diag, rec, name)
         if diag is not None:
             # the verdict on what is left counts a coarse torque reading's steps: a perfect
@@ -306,11 +306,6 @@ def _diagnose(ident: Identification, rec: Record, add):
         return second
     diag.beyond = second
     return diag
-
-
-# What friction beyond a gear spring passes for under a sine: an inertia error, and gravity
-# (over a short travel sin q ~ q ~ -qdd / w^2)
-SPRING_MIMICS = ("inertia_error", "gravity")
 
 
 def _inertia_like_spring(diag: Diagnosis) -> bool:

@@ -8,11 +8,11 @@ Fc 16-89 % low on j3, 10-17 % on j1 with most of the inertia beyond the spring, 
 identifiable, and "nothing left to explain").  Analysed at 3x the cutoff the same records
 name the spring within 1 % and Fc, Fs and sigma2 within 3 %.
 
-So, unless the user set the cutoff or a gear was already named: LuGre is identified again at
-a wider band and a gear spring's term scored against what it leaves, between 0.8x the cutoff
-and the wider band's edge.  Only when such a spring takes a clear share does the whole
-analysis run again at the wider band, and it is kept only if it names the spring and leaves
-no structure that the default band did not already leave.  A spring with part of the friction
+So, unless the user set the cutoff or a gear was already named (``gear_settled``): LuGre is
+identified again at a wider band and a gear spring's term scored against what it leaves,
+between 0.8x the cutoff and the wider band's edge.  Only when such a spring takes a clear
+share does the whole analysis run again at the wider band, and it is kept only if it names
+the spring and leaves no structure that the default band did not already leave.  A spring with part of the friction
 beyond it is scored as well (``gear.spring_beyond``); when the analysis without friction beyond
 the gear leaves structure, or tells it as an inertia error or gravity (which such a spring
 passes for under a sine), it runs once more with it.
@@ -27,6 +27,7 @@ from bench.fitting import predict
 from bench.identify import Identification, identify
 from bench.perfect_model import replay
 from bench.records import Record
+from bench.terms import CONTACT_HZ
 
 WIDEN = 3.0            # the wider band, as a multiple of the default cutoff...
 MAX_BAND = 0.1         # ...at most this fraction of the sample rate (twice choose_cutoff's cap)
@@ -38,6 +39,9 @@ MIN_WIDER = 1.5        # below this ratio the wider band adds too little to be w
 # away.
 MIN_SHARE = 0.3
 GEAR_EFFECTS = ("backlash", "joint_flexibility")
+# What friction beyond a gear spring passes for under a sine: an inertia error, and gravity
+# (over a short travel sin q ~ q ~ -qdd / w^2)
+SPRING_MIMICS = ("inertia_error", "gravity")
 
 
 def wider_band(rec: Record, ident: Identification, min_size: float, artifact_rms: float,
@@ -82,6 +86,26 @@ def wider_band(rec: Record, ident: Identification, min_size: float, artifact_rms
 
 def names_a_gear(diag) -> bool:
     return any(name in GEAR_EFFECTS for name in diag.model.names())
+
+
+def gear_settled(diag) -> bool:
+    """Was a gear named that the wider band need not question?  Not a backlash with friction
+    beyond it that acts as a spring with friction beyond it above the default band, which
+    passes for one: its play narrower than its contact winds up under that friction (j2,
+    independent simulator, 17.5 and 16.9 Hz springs with 18-20 % of the inertia and 33-37 %
+    of the friction beyond, tuning seeds 1968 and 1664: 0.06 mrad of play through a 25-27 Hz
+    contact winding up 1.4 mrad), or beside what such a spring passes for (1966, 17 Hz: 3.4
+    mrad of play beside an inertia error, 22 % of j2's).  True backlashes with 30-60 % of the
+    friction beyond them, whose probe costs 2.6x their analysis, were named alone with plays
+    34-240x the wind-up (j1-j4, fresh seeds 5634-5639)."""
+    names, values = diag.model.names(), diag.model.values
+    if not names_a_gear(diag):
+        return False
+    if "backlash" not in names or values.get("bl_kappa", 0.0) <= 0:
+        return True
+    # the friction beyond (kappa M_load Fs) over the contact's stiffness (M_load w^2)
+    wind_up = values["bl_kappa"] * values["Fs"] / (2 * np.pi * values.get("bl_contact", CONTACT_HZ)) ** 2
+    return bool(values["bl_width"] >= wind_up) and not set(SPRING_MIMICS) & set(names)
 
 
 def widened_warning(default_cutoff: float, wide: float, frequency: float) -> str:

@@ -1,0 +1,34 @@
+"""Which named gears the wider-band probe still questions (bench.wide_band.gear_settled): the
+numbers are the fits the diagnosis made of j2 records (independent simulator)."""
+from types import SimpleNamespace
+
+import pytest
+
+from bench.wide_band import gear_settled
+
+LUGRE = {"Fc": 160.0, "Fs": 240.0}     # not j2's own: the rule reads Fs from the fit
+# a spring with 37 % of the friction beyond it, told as play (tuning seed 1664)
+SPRING_AS_PLAY = {"bl_width": 5.7e-5, "bl_load": 15.7, "bl_kappa": 0.0227, "bl_contact": 24.95}
+# a true backlash with 60 % of the friction beyond it (fresh seed 5638)
+TRUE_PLAY = {"bl_width": 2.0e-3, "bl_load": 109.1, "bl_kappa": 0.0055, "bl_contact": 60.3}
+
+
+def _diag(names, values):
+    model = SimpleNamespace(names=lambda: list(names), values=dict(LUGRE, **values))
+    return SimpleNamespace(model=model)
+
+
+@pytest.mark.parametrize("names,values,settled", [
+    ([], {}, False),                                              # no gear: probe
+    (["cogging"], {}, False),
+    (["joint_flexibility"], {"flex_frequency": 11.0}, True),      # a spring seen in the band
+    (["backlash"], dict(TRUE_PLAY, bl_kappa=0.0), True),          # no friction beyond
+    (["backlash"], TRUE_PLAY, True),                              # play far wider than its wind-up
+    (["backlash"], SPRING_AS_PLAY, False),                        # play inside its contact's wind-up
+    (["inertia_error", "backlash"], TRUE_PLAY, False),            # beside what a spring passes for
+    (["gravity", "backlash"], TRUE_PLAY, False),
+    (["inertia_error", "backlash"], dict(TRUE_PLAY, bl_kappa=0.0), True),
+    (["backlash"], {k: v for k, v in SPRING_AS_PLAY.items() if k != "bl_contact"}, True),  # stiff default contact
+])
+def test_which_named_gears_the_wider_band_still_questions(names, values, settled):
+    assert gear_settled(_diag(names, values)) is settled
