@@ -12,10 +12,10 @@ So, unless the user set the cutoff or a gear was already named (``gear_settled``
 identified again at a wider band and a gear spring's term scored against what it leaves,
 between 0.8x the cutoff and the wider band's edge.  Only when such a spring takes a clear
 share does the whole analysis run again at the wider band, and it is kept only if it names
-the spring and leaves no structure that the default band did not already leave.  A spring with part of the friction
-beyond it is scored as well (``gear.spring_beyond``); when the analysis without friction beyond
-the gear leaves structure, or tells it as an inertia error or gravity (which such a spring
-passes for under a sine), it runs once more with it.
+the spring and leaves no structure that the default band did not already leave.  A spring
+with part of the friction beyond it is scored as well (``gear.spring_beyond``); when the
+analysis without friction beyond the gear leaves structure, or tells it as an inertia error
+or gravity (which such a spring passes for under a sine), it runs once more with it.
 """
 from __future__ import annotations
 

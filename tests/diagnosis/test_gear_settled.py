@@ -5,8 +5,9 @@ from types import SimpleNamespace
 import pytest
 
 from bench.wide_band import gear_settled
+from virtual_drives.presets import PRESETS
 
-LUGRE = {"Fc": 160.0, "Fs": 240.0}     # not j2's own: the rule reads Fs from the fit
+LUGRE = {"Fc": PRESETS["j2"].friction.Fc, "Fs": PRESETS["j2"].friction.Fs}
 # a spring with 37 % of the friction beyond it, told as play (tuning seed 1664)
 SPRING_AS_PLAY = {"bl_width": 5.7e-5, "bl_load": 15.7, "bl_kappa": 0.0227, "bl_contact": 24.95}
 # a true backlash with 60 % of the friction beyond it (fresh seed 5638)
@@ -28,7 +29,7 @@ def _diag(names, values):
     (["inertia_error", "backlash"], TRUE_PLAY, False),            # beside what a spring passes for
     (["gravity", "backlash"], TRUE_PLAY, False),
     (["inertia_error", "backlash"], dict(TRUE_PLAY, bl_kappa=0.0), True),
-    (["backlash"], {k: v for k, v in SPRING_AS_PLAY.items() if k != "bl_contact"}, True),  # stiff default contact
+    (["backlash"], {k: v for k, v in TRUE_PLAY.items() if k != "bl_contact"}, True),  # the default contact
 ])
 def test_which_named_gears_the_wider_band_still_questions(names, values, settled):
     assert gear_settled(_diag(names, values)) is settled
