@@ -28,7 +28,7 @@ from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.unexplained import assess, level_changes, noise_floor, structured
 from bench.validate import in_range, record_magnitudes
-from bench.wide_band import MIN_SHARE, SPRING_MIMICS, gear_settled, names_a_gear, wider_band, widened_warning
+from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
 
 
 @dataclass
@@ -315,7 +315,7 @@ def _inertia_like_spring(diag: Diagnosis) -> bool:
     sine, plus the ringing an inertia error leaves (j2, independent simulator, 30 % of the
     friction beyond a 12 Hz spring, tuning seed 1986: told as an inertia error 11 % low,
     nothing left; j4, 40 % beyond 11 Hz, seed 1970: as gravity)."""
-    if not set(SPRING_MIMICS) & set(diag.model.names()):
+    if not names_a_mimic(diag):
         return False
     ctx = diag.contexts[-1]
     freqs = searched_frequencies(ctx.data.c)
@@ -324,7 +324,7 @@ def _inertia_like_spring(diag: Diagnosis) -> bool:
 
 def _mimic_without_gear(diag: Diagnosis) -> bool:
     """Was an inertia error or gravity credited, and no gear?"""
-    return bool(set(SPRING_MIMICS) & set(diag.model.names())) and not names_a_gear(diag)
+    return names_a_mimic(diag) and not names_a_gear(diag)
 
 
 def _beyond_wins(second: Diagnosis, first: Diagnosis, data) -> bool:

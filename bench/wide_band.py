@@ -88,6 +88,11 @@ def names_a_gear(diag) -> bool:
     return any(name in GEAR_EFFECTS for name in diag.model.names())
 
 
+def names_a_mimic(diag) -> bool:
+    """Was something credited that friction beyond a gear spring passes for?"""
+    return any(name in SPRING_MIMICS for name in diag.model.names())
+
+
 def gear_settled(diag) -> bool:
     """Was a gear named that the wider band need not question?  Not a backlash with friction
     beyond it that acts as a spring with friction beyond it above the default band, which
@@ -105,7 +110,7 @@ def gear_settled(diag) -> bool:
         return True
     # the friction beyond (kappa M_load Fs) over the contact's stiffness (M_load w^2)
     wind_up = values["bl_kappa"] * values["Fs"] / (2 * np.pi * values.get("bl_contact", CONTACT_HZ)) ** 2
-    return bool(values["bl_width"] >= wind_up) and not set(SPRING_MIMICS) & set(names)
+    return bool(values["bl_width"] >= wind_up) and not names_a_mimic(diag)
 
 
 def widened_warning(default_cutoff: float, wide: float, frequency: float) -> str:
