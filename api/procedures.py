@@ -174,7 +174,8 @@ def identify_joint(ctx: Context, rig: Rig, jid: str) -> dict:
     rig.parked = True
     ctx.cancel.check()
     ctx.emit.event("stage", joint=jid, stage="identify", status="running")
-    analysis = analyze_record(res.record, inertia=res.record.inertia, name=f"{jid} (run {ctx.run_id})")
+    with ctx.cancel.during_fit():
+        analysis = analyze_record(res.record, inertia=res.record.inertia, name=f"{jid} (run {ctx.run_id})")
     report = analysis.report()
     params = LuGreParams.from_dict(report["parameters"])
     model_id = ctx.store.add_model(jid, params.as_dict(), report, ctx.run_id)

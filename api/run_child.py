@@ -69,7 +69,7 @@ def main(spec: dict, ctrl, status, estop_conn, armed=None) -> None:
             log.warning(why_not)
     child = ChildRun(spec, ctrl, status, estop_conn, armed)
     # a terminate() (the multiprocessing atexit of a server that never shut down) is a cancel
-    signal.signal(signal.SIGTERM, lambda *_: child.cancel.set("the run's control process was terminated"))
+    signal.signal(signal.SIGTERM, lambda *_: child.terminated())
     child.run()
 
 
@@ -88,6 +88,7 @@ class ChildRun:
         self.estop.on_trigger(self._on_estop)
         self.estopped: str | None = None
         self.parent_gone = False
+        self._parent = os.getppid()
         self.drives: dict = {}               # joint -> GuardedDrive (the newest one opened)
         self.stages_total = int(spec["stages_total"])
         self.stages_done = 0
@@ -136,6 +137,16 @@ class ChildRun:
                 self.cancel.set(args[0])
             elif kind == "ack":
                 self._acked.set()
+
+    def terminated(self) -> None:
+        """SIGTERM: the forkserver died with the server (``die_with_parent``; this process is
+        re-parented by then), or someone terminated this process.  The first is the service
+        ending mid-run whichever of it and the ctrl pipe's end of file comes first: a fit
+        stops at once on the cancel (``bench.checkpoint``), maybe before the pipe's listener
+        has run (1 run in 10 ended 'cancelled' after a kill -9 of the server)."""
+        if os.getppid() != self._parent:
+            self.parent_gone = True
+        self.cancel.set("the run's control process was terminated")
 
     def _on_estop(self, reason: str) -> None:
         self.estopped = reason

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from bench import terms
+from bench.checkpoint import checkpoint
 from bench.gear_model import gear_unit_term
 from bench.load_side import gap_slip, spring_slip
 from bench.lugre import LuGreParams
@@ -187,6 +188,7 @@ def fit(data: FitData, params: list[Param], fixed: dict | None = None,
         return vals
 
     def resid(x):
+        checkpoint()        # a caller may stop a long analysis here (bench.checkpoint)
         r = (y - predict(data, values_of(x), appliers))[mask]
         return r if np.all(np.isfinite(r)) else np.full_like(r, 1e6 * (np.abs(y).max() + 1))
 

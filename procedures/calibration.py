@@ -106,7 +106,8 @@ def calibrate(store: Store, run_id: str, on_event: Sink | None = None, cancel: C
                         rig = None  # closed by _ready_rig
                         raise
                     drivers.update({j: type(d).__name__ for j, d in rig.drives.items()})
-                _STAGE_FUNCS[step["stage"]](store, cfg, rig, plan, step, emit, st, run_id)
+                with cancel.during_fit():   # an identify stage's fit stops at a cancel too
+                    _STAGE_FUNCS[step["stage"]](store, cfg, rig, plan, step, emit, st, run_id)
                 step["status"] = "done"
             except Cancelled:
                 step["status"] = "pending"

@@ -10,7 +10,8 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from typing import Callable
+from contextlib import contextmanager
+from typing import Callable, Iterator
 
 from bench.errors import BenchError
 
@@ -43,6 +44,17 @@ class Cancel:
     def check(self) -> None:
         if self._ev.is_set():
             raise Cancelled(self.reason)
+
+    @contextmanager
+    def during_fit(self) -> Iterator[None]:
+        """Within this block a cancel stops the analysis at its next fit evaluation
+        (``bench.checkpoint``) and is raised as ``Cancelled``; the record is already saved."""
+        from bench.checkpoint import Stopped, stoppable
+        try:
+            with stoppable(self.is_set):
+                yield
+        except Stopped:
+            raise Cancelled(self.reason) from None
 
 
 class Emitter:

@@ -64,6 +64,36 @@ def test_tracking_error_falls_with_compensation(identified_j1, operator):
     operator.put("/joints/j1/compensation", json={"enabled": False})
 
 
+def test_a_cancel_while_the_joint_is_fitted_stops_the_fit(live, operator, observer):
+    """Cancelled once the search is done and the joints are parked for the fit: the run ends
+    'cancelled' with no model (the fit stops at its next evaluation, bench.checkpoint), and the
+    recorded motion is kept.  Before, the fit ran to its end and the run ended 'succeeded'."""
+    before = observer.get("/joints/j2").json()["model"]
+    r = operator.post("/runs", json={"procedure": "identify", "joints": ["j2"], "options": SHORT_SEARCH})
+    assert r.status_code == 202, r.text
+    run_id = r.json()["id"]
+    cancelled = threading.Event()
+
+    def on_event(ev):
+        d = ev["data"].get("data") or {}
+        if ev["event"] == "stage" and d.get("stage") == "identify" and d.get("status") == "running" \
+                and not cancelled.is_set():
+            cancelled.set()
+            assert operator.post(f"/runs/{run_id}/cancel").status_code == 202
+
+    events = sse_events(observer, f"/runs/{run_id}/events", on_event=on_event)
+    assert cancelled.is_set(), [e["event"] for e in events]
+    names = [e["event"] for e in events]
+    assert "model" not in names, names
+    assert [e for e in events if e["event"] == "stop"][-1]["data"]["name"] == "cancelled"
+    run = wait_run(observer, run_id)
+    assert run["state"] == "cancelled" and "cancel" in run["error"], run
+    assert observer.get("/joints/j2").json()["model"] == before
+    csv = observer.get(f"/runs/{run_id}/trace.csv", params={"joint": "j2"})
+    assert csv.status_code == 200
+    assert len([ln for ln in csv.text.splitlines() if ln and not ln.startswith("#")]) > 100
+
+
 def test_live_events_then_cancel_keeps_partial_trace(live, operator, observer):
     r = operator.post("/runs", json={"procedure": "identify", "joints": ["j3"], "options": {"seed": 2}})
     assert r.status_code == 202, r.text

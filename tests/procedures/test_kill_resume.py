@@ -61,3 +61,33 @@ def test_sigkill_then_resume(tmp_path):
     # j3's finished stages were kept, not redone
     assert len(store.list_runs(kind="excitation", joint_id="j3")) == 1
     assert len(store.list_runs(kind="excitation", joint_id="j4")) == 2
+
+
+def test_a_calibration_cancelled_while_fitting_resumes_at_the_fit(tmp_path):
+    """A cancel while the joints are parked for the fit stops the fit (bench.checkpoint): the
+    identify stage goes back to pending with no model, and a resume fits the search's saved
+    record without moving the joint again."""
+    from procedures.calibration import CalibrationSettings, calibrate, start_calibration
+    from procedures.events import Cancel
+
+    store = Store(tmp_path)
+    run_id = start_calibration(store, "macro4", ["j3"], seed=31)
+    cancel = Cancel()
+
+    def on_event(ev):
+        d = ev["data"]
+        if ev["name"] == "stage" and d.get("stage") == "identify" and d.get("status") == "running":
+            cancel.set("cancelled while fitting")
+
+    report = calibrate(store, run_id, on_event=on_event, cancel=cancel, settings=CalibrationSettings(plots=False))
+    run = store.get_run(run_id)
+    assert cancel.is_set() and run["state"] == "cancelled", run["state"]
+    plan = {p["stage"]: p["status"] for p in run["result"]["plan"]}
+    assert plan == {"search": "done", "identify": "pending", "validate": "pending"}, plan
+    assert report["joints"]["j3"]["status"] != "succeeded"
+    assert store.list_models("j3") == []
+
+    report = calibrate(store, run_id, settings=CalibrationSettings(plots=False))
+    assert report["joints"]["j3"]["status"] == "succeeded", report["joints"]["j3"]
+    assert len(store.list_models("j3")) == 1
+    assert len(store.list_runs(kind="excitation", joint_id="j3")) == 1      # not searched again
