@@ -2,8 +2,8 @@
 
 A run's control process gets SIGTERM when its parent (the forkserver, which itself exits
 when the server does) dies: the run is cancelled, its joints ramped down, its record ended
-``interrupted`` (a run caught fitting, its joints parked, finishes the fit first and keeps
-its result: seconds, tens of them on a loaded machine).  The analysis worker gets SIGKILL:
+``interrupted`` (a run caught fitting, its joints parked, stops the fit at its next
+evaluation: ``bench.checkpoint``).  The analysis worker gets SIGKILL:
 it holds nothing worth saving.  With every child gone, multiprocessing's resource tracker
 sees its pipe close and exits too, so a ``kill -9`` of the server leaves no process behind.
 Elsewhere (no prctl) this does nothing; the pipes' end-of-file still ends the run processes.
