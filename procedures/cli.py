@@ -2,12 +2,18 @@
 
 ``register(app)`` adds the command to a Typer app (the lead wires it into ``bench``).
 Bad input prints one line on stderr and exits 2, without a traceback.  Exit 0 when every
-joint calibrated, 1 when the run ended but some joint failed (the report says why).
+joint calibrated, 1 when the run ended but some joint failed (the report says why), 130 when
+Ctrl-C cancelled it: the first Ctrl-C is a cancel (the joints brake under control, a fit stops
+at its next evaluation, the run ends ``cancelled`` and ``--resume`` goes on from there); a
+second one stops at once (the rig's close quick-stops the drives).
 """
 from __future__ import annotations
 
 import json
+import signal
 import sys
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
@@ -108,8 +114,9 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
                 progress.update(tasks[d["joint"]], status=f"search: trial {d['index']} {d['outcome']}")
 
         search = SearchSettings() if excitation is None else SearchSettings(waveform=excitation)
-        report = calibrate(store, run_id, on_event=on_event, settings=CalibrationSettings(
-            search=search, plots=plots, force_simulated=transport == "simulated", hardware=transport == "hardware"))
+        with _ctrl_c_cancels() as cancel:
+            report = calibrate(store, run_id, on_event=on_event, cancel=cancel, settings=CalibrationSettings(
+                search=search, plots=plots, force_simulated=transport == "simulated", hardware=transport == "hardware"))
     text = json.dumps(report, indent=2, default=str)
     if json_out is not None:
         try:
@@ -119,7 +126,35 @@ def _calibrate(bench, joints, json_out, resume, data, seed, plots, transport="vi
     for jid, j in report["joints"].items():
         console.print(f"{jid}: {j['status']}" + (f" — {j['reason']}" if j["reason"] else ""))
     console.print(f"report: {report['files']['html']}")
+    if cancel.is_set():
+        console.print(f"cancelled ({cancel.reason}); go on with: bench calibrate --bench {bench} "
+                      f"--data {data} --resume", soft_wrap=True)
+        return 130
     return 0 if all(j["status"] == "succeeded" for j in report["joints"].values()) else 1
+
+
+@contextmanager
+def _ctrl_c_cancels():
+    """The first Ctrl-C cancels the calibration (``Cancel``); a second raises
+    KeyboardInterrupt as usual.  Only the main thread can own a signal handler, and a SIGINT
+    ignored (a shell's background job) stays ignored."""
+    from procedures.events import Cancel
+    cancel = Cancel()
+    if threading.current_thread() is not threading.main_thread() \
+            or signal.getsignal(signal.SIGINT) is signal.SIG_IGN:     # a background job's: left so
+        yield cancel
+        return
+
+    def on_sigint(signum, frame):
+        if cancel.is_set():
+            raise KeyboardInterrupt
+        cancel.set("Ctrl-C")
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield cancel
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def main() -> None:  # a stand-alone entry point until bench/cli.py wires register()

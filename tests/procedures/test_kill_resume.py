@@ -91,3 +91,48 @@ def test_a_calibration_cancelled_while_fitting_resumes_at_the_fit(tmp_path):
     assert report["joints"]["j3"]["status"] == "succeeded", report["joints"]["j3"]
     assert len(store.list_models("j3")) == 1
     assert len(store.list_runs(kind="excitation", joint_id="j3")) == 1      # not searched again
+
+
+def test_ctrl_c_cancels_the_calibration_and_resume_goes_on(tmp_path):
+    """The first Ctrl-C (SIGINT) on `bench calibrate` is a cancel: the joints brake under
+    control, the run ends 'cancelled' (before: KeyboardInterrupt wherever it landed, the run
+    left 'running' until the next start), exit 130 with the command that goes on; --resume
+    finishes it without searching the finished joint again."""
+    data = tmp_path / "data"
+    cmd = [sys.executable, "-m", "procedures.cli", "calibrate", "--bench", "macro4", "--joints", "j3,j4",
+           "--data", str(data), "--no-plots", "--seed", "29"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 120
+        moving = None
+        while time.time() < deadline and moving is None and proc.poll() is None:
+            time.sleep(0.2)
+            if (data / "runs.sqlite").exists():
+                moving = next((r for r in Store(data).list_runs(kind="excitation", state="running")
+                               if r["joint_id"] == "j4"), None)
+        assert moving is not None, "calibration never reached j4's search"
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, (out, err)
+    assert "Traceback" not in err and "--resume" in err, err
+    store = Store(data)
+    cal = store.list_runs(kind="calibration")[0]
+    assert cal["state"] == "cancelled"
+    assert store.get_run(moving["id"])["state"] == "cancelled"
+    plan = {(p["joint"], p["stage"]): p["status"] for p in cal["result"]["plan"]}
+    assert plan[("j3", "validate")] == "done" and plan[("j4", "search")] == "pending", plan
+
+    app = typer.Typer()
+    register(app)
+    app.command("noop")(lambda: None)
+    out = tmp_path / "r.json"
+    r = CliRunner().invoke(app, ["calibrate", "--bench", "macro4", "--resume", "--data", str(data),
+                                 "--json", str(out), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    report = json.loads(out.read_text())
+    assert report["run_id"] == cal["id"]
+    assert {j: v["status"] for j, v in report["joints"].items()} == {"j3": "succeeded", "j4": "succeeded"}
+    assert len(store.list_runs(kind="excitation", joint_id="j3")) == 1
