@@ -87,7 +87,7 @@ def create_app(conf: ServiceConfig | None = None, service: Service | None = None
         app.state.closing = True          # SSE streams end at their next poll
         svc.runs.shutdown(conf.shutdown_timeout)
         if svc.analysis_pool is not None:
-            svc.analysis_pool.shutdown(wait=False, cancel_futures=True)
+            svc.analysis_pool.shutdown()
 
     app = FastAPI(title="friction-bench", version=bench.__version__, lifespan=lifespan,
                   description="Identify and compensate LuGre friction in robot joints: start identification, "

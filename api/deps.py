@@ -27,7 +27,7 @@ class Service:
     keys: KeyStore
     estop: EStop
     runs: RunManager
-    analysis_pool: object = None     # lazily created process pool for POST /analyze
+    analysis_pool: object = None     # api.analysis_worker.AnalysisWorker, made at the first POST /analyze
     run_cache: OrderedDict = field(default_factory=OrderedDict)   # GET /runs/{id} answers (routes_runs)
     feeds: dict = field(default_factory=dict)     # run id -> its event streams' api.feed.RunFeed
     auth_failures: AuthFailures = field(default_factory=AuthFailures)   # 429 past its budget (api.limits)

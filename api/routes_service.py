@@ -4,7 +4,6 @@ from __future__ import annotations
 import asyncio
 import email.parser
 import email.policy
-from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Optional
 
@@ -20,6 +19,9 @@ from api.runs import Conflict, NotFound
 from bench.errors import InputError
 
 router = APIRouter()
+# s between two looks at an /analyze client while its analysis runs (a look is a poll of the
+# connection's receive channel, microseconds)
+POLL_DISCONNECT = 0.5
 
 
 @router.get("/health", response_model=Health, tags=["service"], summary="Liveness (no key needed)")
@@ -128,34 +130,28 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold,
                "time_unit": time_unit, "window": window}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
-    pool = _pool(svc)
+    if svc.analysis_pool is None:
+        from api.analysis_worker import AnalysisWorker
+        svc.analysis_pool = AnalysisWorker()
+    worker = svc.analysis_pool
+    job, fut = None, None
     try:
-        fut = pool.submit(analyze_upload, raw, name, options, effects, diagnose)
-        return await asyncio.wrap_future(fut)
+        job, fut = worker.submit(raw, name, options, effects, diagnose)
+        waiting = asyncio.wrap_future(fut)
+        while True:
+            done, _ = await asyncio.wait({waiting}, timeout=POLL_DISCONNECT)
+            if done:
+                return waiting.result()
+            if await request.is_disconnected():      # its client gave up: free the worker
+                worker.abandon(job, fut)
+                return Response(status_code=499)     # nobody reads it ("client closed request")
     except BrokenProcessPool:   # the analysis process died (memory?): a new one next time
         svc.analysis_pool = None
         raise HTTPException(503, "the analysis process died; retry") from None
-
-
-def _pool(svc: Service) -> ProcessPoolExecutor:
-    # a separate process: seconds of numerical work must not take the GIL from control loops
-    if svc.analysis_pool is None:
-        import multiprocessing
-        from api.lifeline import analysis_worker_init
-        svc.analysis_pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                                initializer=analysis_worker_init)
-    return svc.analysis_pool
-
-
-def analyze_upload(raw: bytes, name: str, options: dict, effects, diagnose: bool) -> dict:
-    """In the analysis process: read, identify, diagnose; InputError travels back pickled."""
-    import json
-
-    from bench.analysis import analyze_record
-    from bench.readers import read_record
-    rec = read_record(raw, name=name, **options)
-    result = analyze_record(rec, inertia=options.get("inertia"), add=effects, diagnose_effects=diagnose, name=name)
-    return json.loads(json.dumps(result.report(), default=float))   # plain JSON types only
+    except asyncio.CancelledError:                   # the server is stopping
+        if fut is not None:
+            worker.abandon(job, fut)
+        raise
 
 
 async def _upload(request: Request) -> tuple[str, bytes]:

@@ -134,6 +134,39 @@ def test_analyze_csv_body_and_multipart(operator):
     assert r.status_code == 200, r.text
 
 
+def _slow_record_csv() -> str:
+    """A j1 record whose full analysis took 135 s in the worker here (2026-11-28): the motor's
+    torque constant falls at high current, physics the library lacks, so the diagnosis refits
+    every gear candidate (fresh seed)."""
+    import numpy as np
+
+    from bench.records import Record
+    from virtual_drives.joint import sine_torque
+    spec = preset("j1")
+    amp, freq = spec.excitation
+    t = np.arange(20000) * 1e-3
+    cmd = sine_torque(amp, freq, t)
+    felt = cmd * (1.0 - 0.05 * (cmd / amp) ** 2)
+    rec = simulate_record(spec, amp, freq, 20.0, seed=5651, tau=felt).record
+    return Record(t=rec.t, tau=cmd + (rec.tau - felt), q=rec.q, meta=rec.meta).to_csv()
+
+
+def test_an_analysis_its_client_gave_up_on_frees_the_worker(live, operator):
+    """The analysis process takes one upload at a time: one whose client timed out is stopped
+    (api.analysis_worker), so the next upload does not wait the two minutes it had left."""
+    import time
+
+    import httpx
+    with pytest.raises(httpx.ReadTimeout):
+        operator.post("/analyze", content=_slow_record_csv(), headers={"content-type": "text/csv"}, timeout=5)
+    gave_up = time.monotonic()
+    r = operator.post("/analyze", content=_record_csv(), headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=180)
+    assert r.status_code == 200, r.text
+    # the quick record: 0.3-3 s; behind the slow one (before): 138 s
+    assert time.monotonic() - gave_up < 40, time.monotonic() - gave_up
+
+
 def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path):
     """A logger's file with its own column names and units, as Parquet (by content type) and
     as MATLAB .mat (application/octet-stream: told by its magic bytes)."""

@@ -15,6 +15,17 @@ from bench.traces import read_trace
 from procedures.cli import register
 
 
+def _resume(data, out) -> dict:
+    """``bench calibrate --bench macro4 --resume``; its JSON report."""
+    app = typer.Typer()
+    register(app)
+    app.command("noop")(lambda: None)
+    r = CliRunner().invoke(app, ["calibrate", "--bench", "macro4", "--resume", "--data", str(data),
+                                 "--json", str(out), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    return json.loads(out.read_text())
+
+
 def test_sigkill_then_resume(tmp_path):
     data = tmp_path / "data"
     cmd = [sys.executable, "-m", "procedures.cli", "calibrate", "--bench", "macro4", "--joints", "j3,j4",
@@ -46,14 +57,7 @@ def test_sigkill_then_resume(tmp_path):
     plan = {(p["joint"], p["stage"]): p["status"] for p in cal["result"]["plan"]}
     assert plan[("j3", "validate")] == "done" and plan[("j4", "search")] == "running"
 
-    app = typer.Typer()
-    register(app)
-    app.command("noop")(lambda: None)
-    out = tmp_path / "r.json"
-    r = CliRunner().invoke(app, ["calibrate", "--bench", "macro4", "--resume", "--data", str(data),
-                                 "--json", str(out), "--no-plots"])
-    assert r.exit_code == 0, r.output
-    report = json.loads(out.read_text())
+    report = _resume(data, tmp_path / "r.json")
     assert report["run_id"] == cal["id"]
     assert report["transport"] == "virtual" and report["drivers"]["j4"] == "OdriveAsciiDrive"
     assert {j: v["status"] for j, v in report["joints"].items()} == {"j3": "succeeded", "j4": "succeeded"}
@@ -125,14 +129,7 @@ def test_ctrl_c_cancels_the_calibration_and_resume_goes_on(tmp_path):
     plan = {(p["joint"], p["stage"]): p["status"] for p in cal["result"]["plan"]}
     assert plan[("j3", "validate")] == "done" and plan[("j4", "search")] == "pending", plan
 
-    app = typer.Typer()
-    register(app)
-    app.command("noop")(lambda: None)
-    out = tmp_path / "r.json"
-    r = CliRunner().invoke(app, ["calibrate", "--bench", "macro4", "--resume", "--data", str(data),
-                                 "--json", str(out), "--no-plots"])
-    assert r.exit_code == 0, r.output
-    report = json.loads(out.read_text())
+    report = _resume(data, tmp_path / "r.json")
     assert report["run_id"] == cal["id"]
     assert {j: v["status"] for j, v in report["joints"].items()} == {"j3": "succeeded", "j4": "succeeded"}
     assert len(store.list_runs(kind="excitation", joint_id="j3")) == 1
