@@ -5,7 +5,8 @@ through a gear: 80 s for j1's saturating-torque-constant record, 2026-11-28).  A
 meanwhile -- by a technician, or by the death of the server that owned it -- used to finish
 the fit first: 11-36 s after a kill -9 of the server, traced with py-spy.  The caller says
 what "stop" means (``stoppable``); the fit asks at every residual evaluation
-(``bench.fitting.fit``), a contextvar read against the milliseconds an evaluation costs.
+(``bench.fitting.fit``), a contextvar read against the milliseconds an evaluation costs, and
+the residual's held-out learner before each fold (``bench.predictability``, ~1 s a fold).
 """
 from __future__ import annotations
 

@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from bench.checkpoint import checkpoint
 from bench.level_drift import level_change
 from bench.signals import paired_t
 
@@ -67,6 +68,7 @@ def _held_out(X: np.ndarray, r: np.ndarray, fold: np.ndarray, n_folds: int):
     pred = np.zeros_like(r)
     models = []
     for k in range(n_folds):
+        checkpoint()      # each learner takes ~1 s: a stopped analysis stops here too
         test = fold == k
         if not test.any() or test.all():
             models.append(None)
