@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from bench import plots
+from bench.checkpoint import checkpoint
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
 from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
 from bench.effects.joint_flexibility import searched_frequencies
@@ -204,6 +205,9 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
         if diag is not None:
             diag.beyond = None                 # served its purpose; its fits hold memory
         _check_finite(ident, diag)
+    # stopped in the verdict's last steps (~20 % of a j4 analysis after its last fit): a run
+    # cancelled then keeps no model either (bench.checkpoint)
+    checkpoint()
     return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
 
 
