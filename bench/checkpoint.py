@@ -5,8 +5,10 @@ through a gear: 80 s for j1's saturating-torque-constant record, 2026-11-28).  A
 meanwhile -- by a technician, or by the death of the server that owned it -- used to finish
 the fit first: 11-36 s after a kill -9 of the server, traced with py-spy.  The caller says
 what "stop" means (``stoppable``); the fit asks at every residual evaluation
-(``bench.fitting.fit``), a contextvar read against the milliseconds an evaluation costs, and
-the residual's held-out learner before each fold (``bench.predictability``, ~1 s a fold).
+(``bench.fitting.fit``), a contextvar read against the milliseconds an evaluation costs,
+the residual's held-out learner before each fold (``bench.predictability``, ~1 s a fold),
+and ``analyze_record`` once more before it returns: a run stopped at any point of its
+analysis keeps no model.
 """
 from __future__ import annotations
 
