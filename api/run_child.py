@@ -143,7 +143,7 @@ class ChildRun:
         re-parented by then), or someone terminated this process.  The first is the service
         ending mid-run whichever of it and the ctrl pipe's end of file comes first: a fit
         stops at once on the cancel (``bench.checkpoint``), maybe before the pipe's listener
-        has run (1 run in 10 ended 'cancelled' after a kill -9 of the server)."""
+        has run, and the run would be recorded 'cancelled' instead of 'interrupted'."""
         if os.getppid() != self._parent:
             self.parent_gone = True
         self.cancel.set("the run's control process was terminated")
