@@ -57,7 +57,6 @@ class AnalysisWorker:
         """Nobody waits for ``job`` any more: drop it if it has not started, else stop it."""
         if not fut.cancel():
             self._abandoned[next(self._ring)] = job
-        fut.add_done_callback(lambda f: f.cancelled() or f.exception())   # nobody reads it
 
     def shutdown(self) -> None:
         self.pool.shutdown(wait=False, cancel_futures=True)

@@ -134,7 +134,7 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
         from api.analysis_worker import AnalysisWorker
         svc.analysis_pool = AnalysisWorker()
     worker = svc.analysis_pool
-    job, fut = None, None
+    waiting = None
     try:
         job, fut = worker.submit(raw, name, options, effects, diagnose)
         waiting = asyncio.wrap_future(fut)
@@ -144,13 +144,15 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                 return waiting.result()
             if await request.is_disconnected():      # its client gave up: free the worker
                 worker.abandon(job, fut)
+                waiting.cancel()       # its Stopped is never read: not logged as unretrieved
                 return Response(status_code=499)     # nobody reads it ("client closed request")
     except BrokenProcessPool:   # the analysis process died (memory?): a new one next time
         svc.analysis_pool = None
         raise HTTPException(503, "the analysis process died; retry") from None
     except asyncio.CancelledError:                   # the server is stopping
-        if fut is not None:
+        if waiting is not None:
             worker.abandon(job, fut)
+            waiting.cancel()
         raise
 
 
