@@ -29,10 +29,17 @@ from pathlib import Path
 
 import pytest
 
+from tests.record_pool import one_thread
+
 _state: dict = {"files": None, "held": None}
 
 
 def pytest_configure(config):
+    if hasattr(config, "workerinput"):
+        # one BLAS/OpenMP thread a worker, as in the record pool: the verdict's learner and
+        # BLAS otherwise start a thread per core in each worker, and with two workers on two
+        # cores the spinning threads took a third of the CPU time as system time (top, 2026-11-28)
+        one_thread()
     config.addinivalue_line("markers", "solo: times something against the wall clock; runs "
                                        "with no other test beside it (tests/conftest.py)")
 

@@ -27,9 +27,10 @@ T = TypeVar("T")
 WORKERS = max(1, min(2, os.cpu_count() or 1))
 
 
-def _one_thread() -> None:
-    """Worker initializer: one thread for the libraries loaded from here on (the environment
-    is read when they load) and for any already loaded."""
+def one_thread() -> None:
+    """Worker initializer (and each xdist worker's, tests/conftest.py): one thread for the
+    libraries loaded from here on (the environment is read when they load) and for any
+    already loaded."""
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[var] = "1"
     from threadpoolctl import threadpool_limits
@@ -42,5 +43,5 @@ def map_records(job: Callable[..., T], items: Iterable[tuple]) -> list[T]:
     if WORKERS < 2 or len(items) < 2:
         return [job(*it) for it in items]
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(WORKERS, mp_context=ctx, initializer=_one_thread) as pool:
+    with ProcessPoolExecutor(WORKERS, mp_context=ctx, initializer=one_thread) as pool:
         return list(pool.map(job, *zip(*items)))
