@@ -31,7 +31,7 @@ import pytest
 
 from tests.record_pool import one_thread
 
-_state: dict = {"files": None, "held": None}
+_state: dict = {"run": None, "files": None, "held": None}
 
 
 def pytest_configure(config):
@@ -63,7 +63,7 @@ def _files(config):
     if not hasattr(config, "workerinput"):
         return None
     if _state["files"] is None:
-        run = Path(config.option.basetemp).parent
+        run = _state["run"] = Path(config.option.basetemp).parent
         _state["files"] = tuple(os.open(run / f"solo-lock.{name}", os.O_RDWR | os.O_CREAT, 0o600)
                                 for name in ("turnstile", "room"))
     return _state["files"]
@@ -73,8 +73,7 @@ def _log(item, solo: bool, start: float) -> None:
     """One line per test: when it ran (the system's monotonic clock, one for all processes)
     and whether it was solo; the controller checks them at the end (``pytest_sessionfinish``)."""
     if _files(item.config) is not None:
-        run = Path(item.config.option.basetemp).parent
-        with open(run / f"solo-log.{item.config.workerinput['workerid']}", "a") as f:
+        with open(_state["run"] / f"solo-log.{item.config.workerinput['workerid']}", "a") as f:
             f.write(f"{start!r} {time.monotonic()!r} {int(solo)} {item.nodeid}\n")
 
 
