@@ -18,7 +18,8 @@ from bench.effects import EFFECTS, Context, Effect, get
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
 from bench.identify import is_identifiable
-from bench.rounds import close_calls, close_text, round_winner
+from bench.rounds import (close_calls, close_text, hidden_calls, hidden_text, lighter_text,
+                          round_winner)
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
 from bench.signals import effective_sample_fraction
@@ -354,11 +355,13 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         _, sc, ev = round_winner(results)
         explained = 1.0 - (ev.rms / cur.rms) ** 2
         close = close_calls(results, sc)
+        hidden = [h for h in hidden_calls(results, sc, inertia) if h[0] not in dict(close)]
         steps.append(Step(effect=sc.effect, significant=sc.significant, forced=forced_step(sc, add),
                           rms_before=cur.rms, rms_after=ev.rms,
                           evidence=get(sc.effect).evidence(ev.model.values, explained, ev.ctx)
-                          + close_text(close, ev.rms),
-                          values=dict(ev.model.values), screens=screens, close=close))
+                          + close_text(close, ev.rms) + hidden_text(hidden, ev.rms)
+                          + lighter_text(ev.model.values, model.values, ev.rms, cur.rms, inertia),
+                          values=dict(ev.model.values), screens=screens, close=close + [h[:2] for h in hidden]))
         contexts.append(ev.ctx)
         cur = ev
     if len([s for s in steps if not s.forced]) > 1:
