@@ -46,9 +46,9 @@ def close_text(close: list[tuple[str, float]], rms: float) -> str:
             f"from this one's ({rms:.3g}); the lower one decided")
 
 
-def hidden_calls(results: list[tuple], winner, inertia: float) -> list[tuple[str, float, float]]:
+def hidden_calls(results: list[tuple], winner, inertia: float) -> list[tuple[str, float, float, float]]:
     """The round's other contenders that differ from ``winner`` (its screen) in the joint's
-    inertia by more than they differ in held-out error: (effect, rms, their inertias' ratio).
+    inertia by more than they differ in held-out error: (effect, rms, its inertia, the winner's).
 
     A torque the joint feels and the record does not hold (a disturbance, process noise)
     moves q'' = (tau + d - F) / M, so in the compared residual tau - M q'' - F a model whose
@@ -77,14 +77,15 @@ def hidden_calls(results: list[tuple], winner, inertia: float) -> list[tuple[str
             continue
         (m_l, r_l), (m_h, r_h) = sorted(zip(m, (won.rms, e.rms)))
         if m_l < 0.99 * m_h and m_l / m_h * r_h <= r_l <= r_h:
-            out.append((s.effect, e.rms, m_l / m_h))
+            out.append((s.effect, e.rms, m[1], m[0]))
     return out
 
 
-def hidden_text(calls: list[tuple[str, float, float]], rms: float) -> str:
+def hidden_text(calls: list[tuple[str, float, float, float]], rms: float) -> str:
     if not calls:
         return ""
-    others = ", ".join(f"{name} ({r:.3g}, inertias {100 * (1 - ratio):.0f} % apart)" for name, r, ratio in calls)
+    others = ", ".join(f"{name} ({r:.3g}, with an inertia of {m:.4g} where this one has {won:.4g})"
+                       for name, r, m, won in calls)
     return (f" — a close call: {others} left a held-out error that differs from this one's "
             f"({rms:.3g}) by less than their inertias do; a disturbance the joint felt shows that "
             f"much less in the lighter model, so the record cannot tell them apart (under a "
