@@ -361,7 +361,10 @@ def test_units_stated_in_the_header_are_used_unless_an_option_says_otherwise(tmp
         f"{a * 1e3:.3f}\t{b:.9g}\t{np.degrees(c):.12g}" for a, b, c in rows), "--columns", "t=time,tau=torque,q=angle")
     for doc in (in_names, units_row):
         assert doc["units"]["from_header"] == {"t": "ms", "tau": "N*m", "q": "deg"}
-        assert doc["parameters"] == pytest.approx(si["parameters"], rel=1e-6)
+        # the same fit to rounding: milliseconds at 3 decimals and degrees at 12 digits move
+        # the least determined parameter (alpha) by 1.3e-6 with numpy 2.4 / scipy 1.17
+        # (2026-11-29); a unit left unapplied would move everything by orders of magnitude
+        assert doc["parameters"] == pytest.approx(si["parameters"], rel=1e-5)
     # a row of descriptions under the names is skipped and said once, not read as units
     described = analyse("words.csv", "time,torque,angle\nTime since start,Motor torque,Joint angle\n" + "\n".join(
         f"{a:.6f},{b:.9g},{c:.12g}" for a, b, c in rows), "--columns", "t=time,tau=torque,q=angle")
