@@ -100,7 +100,7 @@ def lighter_text(values: dict, before: dict, rms: float, rms_before: float, iner
     Fc (2026-11-29): true torque lags took an inertia error of -50 % (j1, 1970) and -74 % (j4,
     1973) beside them, both noted; springs with friction beyond them were inertia errors of
     -62 to -70 % beside gravity on j1 and j2 (1975, 1976, 1978, 1979; noted on the gravity
-    step, whose refit took the inertia there) or of -17 to -23 % alone, not noted (1977, 1980,
+    step, whose refit took the inertia there) or of -17 to -24 % alone, not noted (1977, 1980,
     1981).  True ones, 15-25 % light, cut the error by more than their ratio, never noted
     (1984, 1986, 1988, 1998, 1999).  Turning such steps away instead (tried, not kept) lost
     j4's true -20 % (1986) to gravity: the friction takes part of the disturbance, so a lighter
@@ -114,4 +114,3 @@ def lighter_text(values: dict, before: dict, rms: float, rms_before: float, iner
             f"error fell by less ({rms_before:.3g} to {rms:.3g}): a lighter model shows that much "
             f"less of a disturbance the joint felt, so this may only hide one; check the declared "
             f"inertia (CAD, a payload test)")
-
