@@ -72,13 +72,28 @@ def hidden_calls(results: list[tuple], winner, inertia: float) -> list[tuple[str
     for _, s, e in results:
         if s is winner:
             continue
-        m = [inertia + ev.model.values.get("inertia_error", 0.0) for ev in (won, e)]
+        m = [_modelled(inertia, ev.model.values) for ev in (won, e)]
         if min(m) <= 0:
             continue
         (m_l, r_l), (m_h, r_h) = sorted(zip(m, (won.rms, e.rms)))
-        if m_l < 0.99 * m_h and m_l / m_h * r_h <= r_l <= r_h:
+        if _may_hide(m_l, r_l, m_h, r_h) and r_l <= r_h:
             out.append((s.effect, e.rms, m[1], m[0]))
     return out
+
+
+def _modelled(inertia: float, values: dict) -> float:
+    """The joint's inertia as a model has it: the declared one plus its inertia error."""
+    return inertia + values.get("inertia_error", 0.0)
+
+
+def _may_hide(m_light: float, rms_light: float, m_heavy: float, rms_heavy: float) -> bool:
+    """Is the lighter model (clearly lighter) ahead by no more than its inertia's ratio, which
+    is what it can hide of a disturbance the joint felt?"""
+    return m_light < 0.99 * m_heavy and rms_light >= m_light / m_heavy * rms_heavy
+
+
+# what a technician does about a story the record cannot tell from another by its inertia
+CHECK_INERTIA = "check the declared inertia (CAD, a payload test)"
 
 
 def hidden_text(calls: list[tuple[str, float, float, float]], rms: float) -> str:
@@ -90,7 +105,7 @@ def hidden_text(calls: list[tuple[str, float, float, float]], rms: float) -> str
             f"({rms:.3g}) by less than their inertias do; a disturbance the joint felt shows that "
             f"much less in the lighter model, so the record cannot tell them apart (under a "
             f"torque sine an inertia error, a torque lag and gravity differ in little else): "
-            f"check the declared inertia (CAD, a payload test) before compensating")
+            f"{CHECK_INERTIA} before compensating")
 
 
 def lighter_text(values: dict, before: dict, rms: float, rms_before: float, inertia: float) -> str:
@@ -107,10 +122,9 @@ def lighter_text(values: dict, before: dict, rms: float, rms_before: float, iner
     model hides less than its ratio."""
     if inertia <= 0:
         return ""
-    new, old = (inertia + v.get("inertia_error", 0.0) for v in (values, before))
-    if new <= 0 or old <= 0 or new >= 0.99 * old or rms < new / old * rms_before:
+    new, old = (_modelled(inertia, v) for v in (values, before))
+    if new <= 0 or old <= 0 or not _may_hide(new, rms, old, rms_before):
         return ""
     return (f" — but with it the model is {100 * (1 - new / old):.0f} % lighter and the held-out "
             f"error fell by less ({rms_before:.3g} to {rms:.3g}): a lighter model shows that much "
-            f"less of a disturbance the joint felt, so this may only hide one; check the declared "
-            f"inertia (CAD, a payload test)")
+            f"less of a disturbance the joint felt, so this may only hide one; {CHECK_INERTIA}")
