@@ -81,8 +81,8 @@ LEVEL_PHYSICS = ("a friction change during the record that one warm-up exponenti
                  "(a step: lubricant redistributed, a seal, a load or a contact change; a temperature "
                  "that rises and falls)")
 REGIME_PHYSICS = {
-    "presliding": "presliding behaviour beyond a single bristle state: backlash in the gears, or "
-                  "hysteresis with nonlocal memory (a Maxwell-slip / GMS model)",
+    # the same words as the travel signal's, so a residual that shows both reads them once
+    "presliding": SIGNALS["travel_since_reversal"][1],
     "breakaway": "a breakaway that the Stribeck curve does not describe: frictional lag, or "
                  "rising static friction with dwell time",
     "stribeck": "a Stribeck decay with another shape, or frictional lag on slowing down",
