@@ -172,6 +172,8 @@ def _text(raw: bytes, name: str):
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{name}: not UTF-8 text (and not Parquet or MATLAB .mat)") from None
+    if _CONTROL.search(text):   # valid UTF-8 need not be text: a binary dump, a truncated copy
+        raise InputError(f"{name}: holds control characters (binary content), not a text record")
     meta, body = {}, text
     if "#" in text:
         meta = split_metadata("\n".join(_META.findall(text)))[0]
@@ -210,12 +212,15 @@ def _text(raw: bytes, name: str):
             convert_options=pacsv.ConvertOptions(decimal_point=decimal, strings_can_be_null=False))
     except pa.ArrowInvalid as e:
         msg = str(e).splitlines()[0]
+        if "skip initial" in msg:   # Arrow's words for a header with nothing under it
+            raise InputError(f"{name}: a header row and no data rows") from None
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
     return table, meta, fmt, units_row
 
 
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")   # not tab, newline or carriage return
 _META = re.compile(r"^[ \t]*(#.*)$\n?", re.M)
 _LEADING = re.compile(r"^[ \t]+|[ \t]+(?=\r?$)", re.M)    # leading and trailing blanks
 _SPACES = re.compile(r"[ \t]+")

@@ -520,6 +520,9 @@ def test_milliseconds_from_a_metadata_line_are_seconds_inside():
     ("t,tau,q\n" + "".join(f"{i / 1000},{i},{i}\n" for i in range(60)), {"inertia": -1}, "inertia must be positive"),
     ("# encoder: output\nt,tau,q\n" + "".join(f"{i / 1000},{i},{i}\n" for i in range(60)), {"inertia": 1},
      "encoder must be motor or load"),
+    # valid UTF-8 that is no text (Arrow said "Could not skip initial 1 rows ...")
+    ("garbage\x00\x01", {}, "holds control characters (binary content), not a text record"),
+    ("t,tau,q", {}, "a header row and no data rows"),
 ])
 def test_bad_input_is_one_line(content, options, expect):
     with pytest.raises(InputError) as e:
