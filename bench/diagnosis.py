@@ -290,7 +290,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         model = cur.model
         n_eff = len(cur.r) * effective_sample_fraction(cur.r)
         across_before = cv.sse_across_directions(cur.J, cur.r)
-        candidates = [e for e in EFFECTS.values() if e.name not in model.names() and e.applicable(cur.ctx)]
+        asked = {e.name for e in forced}
+        candidates = [e for e in EFFECTS.values() if e.name not in model.names() and e.applicable(cur.ctx)
+                      and (e.auto or e.name in asked)]
         screens = [s for s in (screen(e, cur.ctx, model, cur.J, cv, cur.sse, across_before, n_eff)
                                for e in candidates) if s]
         for sc in screens:

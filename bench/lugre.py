@@ -108,14 +108,14 @@ def bristle_step(z0, v, h, s, sigma0):
 
 
 @njit(cache=True)
-def friction_trace(vh, dt, z0, Fc, Fs, alpha, delta, sigma0, sigma1, sigma2, level, visc):
+def friction_trace(vh, dt, z0, Fc, Fs, alpha, delta, sigma0, sigma1, sigma2, level, visc, damp):
     """Friction along a velocity trace held over intervals of length dt.
 
     ``vh[i]`` is the velocity held over interval i; the bristle state is advanced exactly and
     ``F[i]`` is the exact mean friction over the interval:
     sigma0 * mean(z) + sigma1 * (z_end - z_start) / dt + sigma2 * vh.  ``level`` scales s(v)
-    (position-, direction- or time-dependent friction levels) and ``visc`` scales sigma2,
-    interval by interval.  Returns (F, z at the start of each interval).
+    (position-, direction- or time-dependent friction levels), ``visc`` scales sigma2 and
+    ``damp`` sigma1 (``bench.terms.damping``), interval by interval.  Returns (F, z at the start of each interval).
     """
     n = vh.shape[0]
     F = np.empty(n)
@@ -125,7 +125,7 @@ def friction_trace(vh, dt, z0, Fc, Fs, alpha, delta, sigma0, sigma1, sigma2, lev
         z[i] = zi
         s = level[i] * stribeck_level(vh[i], Fc, Fs, alpha, delta)
         z1, zbar = bristle_step(zi, vh[i], dt, s, sigma0)
-        F[i] = sigma0 * zbar + sigma1 * (z1 - zi) / dt + sigma2 * visc[i] * vh[i]
+        F[i] = sigma0 * zbar + sigma1 * damp[i] * (z1 - zi) / dt + sigma2 * visc[i] * vh[i]
         zi = z1
     return F, z
 
@@ -148,5 +148,5 @@ def model_friction(params: LuGreParams, q: np.ndarray, dt: float, z0: float = 0.
     level = ones if level is None else np.ascontiguousarray(level, dtype=np.float64)
     visc = ones if visc is None else np.ascontiguousarray(visc, dtype=np.float64)
     F, z = friction_trace(vh, float(dt), float(z0), params.Fc, params.Fs, params.alpha,
-                          params.delta, params.sigma0, params.sigma1, params.sigma2, level, visc)
+                          params.delta, params.sigma0, params.sigma1, params.sigma2, level, visc, ones)
     return interval_to_samples(F), z

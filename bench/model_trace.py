@@ -1,6 +1,6 @@
 """The model's friction along a record, filtered like the measurement: the LuGre trace
 (``bench.lugre.friction_trace`` along the measured velocity, segment by segment) with the terms'
-level and viscous multipliers, and the additive terms' filtered columns.  The fit
+level, viscous and damping multipliers, and the additive terms' filtered columns.  The fit
 (``bench.fitting.predict``) asks for these tens of thousands of times per record, so each is
 remembered for the last few values it depends on."""
 from __future__ import annotations
@@ -56,12 +56,12 @@ def filtered_terms_lugre(data: FitData, lugre: dict, ev: np.ndarray,
 
     def make():
         if any(level_key):
-            level, visc = remember(data.cache.setdefault("level", {}), level_key,
-                                    lambda: multipliers(c, ev), 4)
+            level, visc, damp = remember(data.cache.setdefault("level", {}), level_key,
+                                          lambda: multipliers(c, ev), 4)
         else:
-            level = visc = ones(len(c.v_mid))
+            level = visc = damp = ones(len(c.v_mid))
         return c.lowpass(lugre_samples(data, lugre, level, visc, v=None if along is None else along[1],
-                                       add0=add0))
+                                       add0=add0, damp=damp))
     return remember(data.cache.setdefault("lugre", {}), key, make, 6)
 
 
@@ -83,9 +83,11 @@ def rest_start_additive(c: Conditioned, ev: np.ndarray) -> dict:
     return out
 
 
-def multipliers(c: Conditioned, ev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def multipliers(c: Conditioned, ev: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(level, viscous, damping) multipliers over each sample interval."""
     _, level, visc = terms.effect_terms(c.q_mid, c.v_mid, c.t_mid, ev)
-    return np.ascontiguousarray(np.maximum(level, 1e-6)), np.ascontiguousarray(visc)
+    return (np.ascontiguousarray(np.maximum(level, 1e-6)), np.ascontiguousarray(visc),
+            np.ascontiguousarray(terms.damping(c.v_mid, ev)))
 
 
 def filtered_columns(c: Conditioned, key, columns) -> np.ndarray:
@@ -96,7 +98,8 @@ def filtered_columns(c: Conditioned, key, columns) -> np.ndarray:
 
 
 def lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray,
-                   v: np.ndarray | None = None, add0: dict | None = None) -> np.ndarray:
+                   v: np.ndarray | None = None, add0: dict | None = None,
+                   damp: np.ndarray | None = None) -> np.ndarray:
     """LuGre friction at the full-rate samples, simulated segment by segment: the bristle
     state restarts at each segment (a gap hides what it did), from the friction estimate at
     the segment's start as for the first (``data.z0``).  Along the motor's velocity, or ``v``
@@ -105,8 +108,9 @@ def lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray,
     c = data.c
     v = c.v_mid if v is None else v
     args = (p["Fc"], p["Fs"], p["alpha"], p["delta"], p["sigma0"], p["sigma1"], p["sigma2"])
+    damp = ones(len(v)) if damp is None else damp
     if len(c.segments) == 1:
-        F, _ = friction_trace(v, c.dt, data.z0, *args, level, visc)
+        F, _ = friction_trace(v, c.dt, data.z0, *args, level, visc, damp)
         return interval_to_samples(F)
     parts = []
     for k, ((a, b), (g, _)) in enumerate(zip(c.interval_segments, c.grid_segments)):
@@ -114,7 +118,7 @@ def lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray,
         if add0 and k in add0:
             lim = p["Fs"] / p["sigma0"]
             z0 = float(np.clip(z0 - add0[k] / p["sigma0"], -lim, lim))
-        F, _ = friction_trace(v[a:b], c.dt, z0, *args, level[a:b], visc[a:b])
+        F, _ = friction_trace(v[a:b], c.dt, z0, *args, level[a:b], visc[a:b], damp[a:b])
         parts.append(interval_to_samples(F) if b > a else np.zeros(1))
     return np.concatenate(parts)
 

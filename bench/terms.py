@@ -9,6 +9,7 @@ their parameters (a fit can solve them by least squares).
     level multiplier  (1 + asym sgn v) (1 + sum_k (e_k sin(k w' q) + f_k cos(k w' q)))
                       (1 + c_th (1 - exp(-t / tau_th)))        scales s(v): Fc and Fs
     viscous multiplier (1 + c_v (1 - exp(-t / tau_th)))        scales sigma2
+    damping multiplier 1 - g (1 - exp(-(v / v_d)^2))           scales sigma1 (``damping``)
 with w = 2 pi / cogging pitch and w' = 2 pi / friction pitch.
 
 The joint's mechanics beyond a rigid body are slots too (zero = rigid, today's path):
@@ -44,7 +45,10 @@ ASYM = 15
 THERM_GAIN, THERM_TAU = 16, 17
 BACKLASH, FLEX_FREQ, FLEX_DAMP, LOAD_FRAC, LOAD_FRICTION = 18, 19, 20, 21, 22
 THERM_VISC = 23       # the viscous part warms with its own gain (the oil thins)
-SIZE = 24
+# The bristles' damping fading with speed: sigma1 (1 - g (1 - exp(-(v / vd)^2))); g = 1 is
+# Canudas de Wit et al.'s sigma1(v) = sigma1 exp(-(v / vd)^2), written for passivity
+DAMP_GAIN, DAMP_VD = 24, 25
+SIZE = 26
 
 # Backlash without a declared flexibility: the teeth meet through a stiff, well damped
 # spring-damper rather than an impact law.  An impact needs event detection inside a step,
@@ -124,12 +128,23 @@ def effect_terms(q, v, t, ev):
     return add, level, visc
 
 
+@njit(cache=True)
+def damping(v, ev):
+    """sigma1's multiplier at velocity v (scalar or array): the bristles' damping fades as the
+    joint speeds up, to 1 - g above ~ v_d."""
+    g, vd = ev[DAMP_GAIN], ev[DAMP_VD]
+    if g == 0.0 or vd <= 0.0:
+        return 1.0 + 0.0 * v
+    return 1.0 - g * (1.0 - np.exp(-(v / vd) ** 2))
+
+
 # The additive torque is linear in these slots, column by column of ``additive_columns``:
 # a fit evaluates it as a weighted sum of fixed (filtered) columns instead of re-evaluating
 # the sines at every call (``bench.fitting.predict``).  The level and viscous multipliers are
 # not linear and depend only on these slots:
 ADDITIVE_SLOTS = (OFFSET, GRAV_SIN, GRAV_COS) + tuple(range(COG_COEF, COG_COEF + 2 * COG_HARMONICS))
-LEVEL_SLOTS = (ASYM, PF_PITCH) + tuple(range(PF_COEF, PF_COEF + 2 * PF_HARMONICS)) + (THERM_GAIN, THERM_TAU, THERM_VISC)
+LEVEL_SLOTS = (ASYM, PF_PITCH) + tuple(range(PF_COEF, PF_COEF + 2 * PF_HARMONICS)) + (THERM_GAIN, THERM_TAU, THERM_VISC,
+                                                                                   DAMP_GAIN, DAMP_VD)
 
 
 def additive_columns(q: np.ndarray, cog_pitch: float) -> np.ndarray:
@@ -281,14 +296,15 @@ def motor_step(q0, v0, z0, t, h, tau, M, p, ev, has_terms, v_guess, slope_guess)
     g_prev = 0.0
     v_prev = 0.0
     z1 = z0
-    add, level, visc = 0.0, 1.0, 1.0
+    add, level, visc, damp = 0.0, 1.0, 1.0, 1.0
     for it in range(12):
         vh = 0.5 * (v0 + v1)
         if has_terms:
             add, level, visc = effect_terms(q0 + 0.5 * h * vh, vh, t + 0.5 * h, ev)
+            damp = damping(vh, ev)
         s = level * stribeck_level(vh, Fc, Fs, alpha, delta)
         z1, zbar = bristle_step(z0, vh, h, s, s0)
-        Fbar = s0 * zbar + s1 * (z1 - z0) / h + s2 * visc * vh
+        Fbar = s0 * zbar + s1 * damp * (z1 - z0) / h + s2 * visc * vh
         g = M * (v1 - v0) - h * (tau - Fbar - add)
         slope = last_slope if it == 0 else chord
         if it > 0 and v1 != v_prev:

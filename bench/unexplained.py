@@ -67,7 +67,9 @@ LINEAR = {
 }
 # state signals the predictability learner uses -> (what the residual depends on, physics)
 SIGNALS = {
-    "velocity": ("the velocity", "viscous friction that is not linear in velocity (sigma2 |v|^beta)"),
+    # the fade is not screened on its own (bench.effects.damping_fade): name it where to look
+    "velocity": ("the velocity", "viscous friction that is not linear in velocity (sigma2 |v|^beta), or "
+                 "a bristle damping that fades with speed (bench analyze --add damping_fade)"),
     "position": ("the position", "a position-dependent effect that is not periodic (a local defect, "
                  "a load that grows along the travel)"),
     "time": ("time", "a drift that is not a single exponential, or a change during the record"),

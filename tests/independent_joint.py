@@ -35,7 +35,7 @@ def _rates(x, u, d, P, t):
     Jm, Jl, gap, k, c, geared, share = P[6], P[7], P[8], P[9], P[10], P[11], P[12]
     mgl, q0, lag, cog, cog_p, cog_h2 = P[13], P[14], P[15], P[16], P[17], P[18]
     rip, rip_p, warm, warm_t, const, asym = P[19], P[20], P[21], P[22], P[23], P[24]
-    jump, jump_t, load_mu = P[25], P[26], P[27]
+    jump, jump_t, load_mu, static_eps, s1_vd = P[25], P[26], P[27], P[28], P[29]
     out = np.zeros(7)
     vm, vl = x[1], x[4]
     # the drive's current loop: a first-order lag between the command and the torque felt
@@ -58,9 +58,14 @@ def _rates(x, u, d, P, t):
         scale *= 1.0 + load_mu * abs(u) / Fc
     visc = s2 * (1.0 - warm * (1.0 - math.exp(-t / warm_t))) if warm != 0.0 else s2
     g = scale * (Fc + (Fs - Fc) * math.exp(-abs(al * vm)))
-    zdm = vm - s0 * abs(vm) / g * x[2]
-    Fm = s0 * x[2] + s1 * zdm + visc * vm
-    out[2] = zdm
+    if static_eps > 0.0:   # a static map, regularised: no bristles, the joint creeps in stick
+        Fm = g * math.tanh(vm / static_eps) + visc * vm
+    else:
+        zdm = vm - s0 * abs(vm) / g * x[2]
+        # the bristle damping may fade with speed, Canudas de Wit's variant for passivity
+        s1m = s1 * math.exp(-(vm / s1_vd) ** 2) if s1_vd > 0.0 else s1
+        Fm = s0 * x[2] + s1m * zdm + visc * vm
+        out[2] = zdm
     if geared == 0.0:
         out[0] = vm
         out[1] = (u + d + ext - Fm) / (Jm + Jl)
@@ -149,10 +154,14 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     coefficient falls by ``warm`` as the joint warms), ``constant`` (a torque the record does
     not hold), ``asym`` (the friction levels going negative scaled by 1 + asym) and
     ``jump``/``jump_t`` (both levels change by ``jump`` at ``jump_t``: outside the library) and
-    ``load_mu`` (the levels grow by ``load_mu`` |torque|, a loaded mesh: outside the library)."""
+    ``load_mu`` (the levels grow by ``load_mu`` |torque|, a loaded mesh: outside the library);
+    ``static_eps`` replaces the motor's LuGre by a static map, s(v) tanh(v / eps) + sigma2 v,
+    as many simulators write friction: no presliding spring, the joint creeps in stick;
+    ``sigma1_vd`` fades the motor's bristle damping with speed, sigma1 exp(-(v / vd)^2)."""
     ph = dict(physics or {})
     unknown = set(ph) - {"mgl", "q0", "lag", "detent", "detent_pitch", "detent_h2", "ripple",
-                         "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t", "load_mu"}
+                         "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t", "load_mu",
+                         "static_eps", "sigma1_vd"}
     assert not unknown, unknown
     rng = np.random.default_rng([seed, 77])
     f = spec.friction
@@ -173,7 +182,8 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("detent", 0.0), ph.get("detent_pitch", 1.0), ph.get("detent_h2", 0.0),
                   ph.get("ripple", 0.0), ph.get("ripple_pitch", 1.0), ph.get("warm", 0.0),
                   ph.get("warm_tau", 1.0), ph.get("constant", 0.0), ph.get("asym", 0.0),
-                  ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0)])
+                  ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0),
+                  ph.get("static_eps", 0.0), ph.get("sigma1_vd", 0.0)])
     gains = np.zeros(5)
     if pd is not None:
         wc = 2.0 * math.pi * pd[0]

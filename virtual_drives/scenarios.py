@@ -80,11 +80,17 @@ def _flexibility(spec, travel, T, rng):
     return f"joint_flexibility:frequency={f:.4g},damping={rng.uniform(0.03, 0.12):.4f}"
 
 
+def _damping(spec, travel, T, rng):
+    # LuGre simulators that fade sigma1 set v_d near the Stribeck velocity 1/alpha or below
+    # it; the fade matters from about a third of it down (bench.effects.damping_fade)
+    return f"damping_fade:vd={rng.uniform(0.15, 0.35) / spec.friction.alpha:.5g}"
+
+
 GENERATORS = {
     "inertia_error": _inertia, "direction_asymmetry": _asym, "cogging": _cogging,
     "position_dependent_friction": _posfric, "gravity": _gravity, "torque_offset": _offset,
     "thermal_drift": _thermal, "stribeck_shape": _stribeck, "torque_lag": _lag,
-    "backlash": _backlash, "joint_flexibility": _flexibility,
+    "backlash": _backlash, "joint_flexibility": _flexibility, "damping_fade": _damping,
 }
 
 

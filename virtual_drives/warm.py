@@ -23,7 +23,8 @@ def warm() -> None:
     ones, x = np.ones(4), np.linspace(-0.1, 0.1, 4)
     ev = terms.empty()
     terms.effect_terms(x, x, x, ev)
-    friction_trace(x, 0.002, 0.0, 1.0, 1.2, 1.0, 1.0, 1e5, 10.0, 1.0, ones, ones)
+    terms.damping(x, ev)
+    friction_trace(x, 0.002, 0.0, 1.0, 1.2, 1.0, 1.0, 1e5, 10.0, 1.0, ones, ones, ones)
 
 
 warm()

@@ -8,6 +8,7 @@ from __future__ import annotations
 from bench.effects.backlash import Backlash
 from bench.effects.base import Context, Effect
 from bench.effects.cogging import Cogging
+from bench.effects.damping_fade import DampingFade
 from bench.effects.direction_asymmetry import DirectionAsymmetry
 from bench.effects.gravity import Gravity
 from bench.effects.inertia_error import InertiaError
@@ -22,7 +23,7 @@ from bench.errors import InputError
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
     InertiaError(), DirectionAsymmetry(), Cogging(), PositionDependentFriction(),
     Gravity(), TorqueOffset(), ThermalDrift(), StribeckShape(), TorqueLag(), Backlash(),
-    JointFlexibility(),
+    JointFlexibility(), DampingFade(),
 )}
 
 

@@ -128,6 +128,9 @@ class Effect:
     # how many of its other screened variants the refit starts from too (the lowest cost wins):
     # where the screening's pick is made against a LuGre fit the missing effect bent
     restarts: int = 0
+    # screened by the diagnosis on its own; an effect it cannot yet find behind the LuGre fit
+    # that absorbs it is tried only when asked (``bench analyze --add``)
+    auto: bool = True
 
     def applicable(self, ctx: Context) -> bool:
         return True

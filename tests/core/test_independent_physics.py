@@ -25,6 +25,9 @@ CONTACT = dict(contact_hz=terms.CONTACT_HZ, contact_damping=terms.CONTACT_DAMPIN
      dict(flex_hz=8.0, flex_damping=0.05, friction_on_load=1.0)),
     ("rotary", "joint_flexibility:frequency=20,damping=0.08,load_fraction=0.3,load_friction=0.5",
      dict(flex_hz=20.0, flex_damping=0.08, load_share=0.3, friction_on_load=0.5)),
+    # the bristles' damping fading with speed (one kernel: the fit's and the virtual joint's)
+    ("j3", "damping_fade:vd=0.02", dict(physics=dict(sigma1_vd=0.02))),
+    ("j1", "damping_fade:vd=0.018", dict(physics=dict(sigma1_vd=0.018))),
 ])
 def test_the_virtual_joint_moves_as_an_independent_integrator_says(joint, effect, independent):
     spec = PRESETS[joint]
@@ -39,7 +42,7 @@ def test_the_virtual_joint_moves_as_an_independent_integrator_says(joint, effect
     travel = np.ptp(ours.true_q)
     assert travel > 1000 * spec.encoder_resolution       # the joint slid, back and forth
     assert np.max(np.abs(ours.true_q - theirs)) < 2e-5 * travel
-    if effect:   # the gear changed the motion by far more than the two disagree
+    if effect:   # the effect changed the motion by far more than the two disagree
         rigid = simulate_record(spec, *spec.excitation, duration, torque_noise=0.0,
                                 encoder_resolution=0.0, tau=tau, q0=0.0)
         assert np.max(np.abs(rigid.true_q - ours.true_q)) > 100 * np.max(np.abs(ours.true_q - theirs))

@@ -63,7 +63,7 @@ def test_steady_state_map_and_trace_agree_at_constant_velocity():
 def test_high_stiffness_trace_is_finite_at_1khz():
     v = np.sin(np.linspace(0, 20, 20000)) * 0.4
     ones = np.ones_like(v)
-    F, z = friction_trace(v, 1e-3, 0.0, 1500.0, 1614.0, 18.0, 1.0, 1e6, 8900.0, 11262.0, ones, ones)
+    F, z = friction_trace(v, 1e-3, 0.0, 1500.0, 1614.0, 18.0, 1.0, 1e6, 8900.0, 11262.0, ones, ones, ones)
     assert np.all(np.isfinite(F)) and np.max(np.abs(z)) <= 1614.0 / 1e6 * (1 + 1e-12)
 
 

@@ -12,7 +12,7 @@ def test_observer_matches_the_shared_model_along_a_trace():
     t = np.arange(4000) * dt
     v = 0.3 * np.sin(2 * np.pi * 0.5 * t)
     one = np.ones_like(v)
-    F_ref, _ = friction_trace(v, dt, 0.0, P.Fc, P.Fs, P.alpha, P.delta, P.sigma0, P.sigma1, P.sigma2, one, one)
+    F_ref, _ = friction_trace(v, dt, 0.0, P.Fc, P.Fs, P.alpha, P.delta, P.sigma0, P.sigma1, P.sigma2, one, one, one)
     obs = LuGreObserver(P, dt)
     F = np.array([obs.update(x) for x in v])
     # same kernel: steady sliding agrees to round-off, transitions to a fraction of Fs

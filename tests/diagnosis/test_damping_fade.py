@@ -1,0 +1,42 @@
+"""A bristle damping that fades with speed (LuGre's sigma1 exp(-(v/vd)^2) variant), on records
+of the independent simulator: asked for (``--add damping_fade``), it is fitted with LuGre's
+values and the error falls to what the same joint leaves without it.  The diagnosis does not
+screen it on its own (``DampingFade.auto``; README known limits).
+
+Seeds 5680-5685 are fresh (the fade was probed on tuning seeds 1530-1557, where it came out
+with its gain at 0.96, v_d within 2 % and every LuGre value within 2 %)."""
+import pytest
+
+from bench.analysis import analyze_record
+from independent_joint import independent_record
+from virtual_drives.presets import PRESETS
+
+from tests.record_pool import map_records
+
+
+def _analyse(rec, add):
+    return analyze_record(rec, add=add).report()
+
+
+@pytest.mark.parametrize("joint, vd, seed, jitter", [
+    ("j3", 0.05, 5680, 0.0),
+    ("j1", 0.015, 5681, 0.0),
+    ("j4", 0.03, 5682, 0.3),     # a PC logger's jittered timestamps
+])
+def test_an_asked_for_fade_is_fitted_and_the_error_falls_to_the_joints_own(joint, vd, seed, jitter):
+    spec = PRESETS[joint]
+    faded, _ = independent_record(spec, seed=seed, jitter=jitter, physics=dict(sigma1_vd=vd))
+    plain, _ = independent_record(spec, seed=seed, jitter=jitter)
+    auto, asked, own = map_records(_analyse, [(faded, None), (faded, ["damping_fade"]), (plain, None)])
+    # not screened on its own
+    assert all(d["effect"] != "damping_fade" for d in auto["diagnosis"])
+    step = asked["diagnosis"][0]
+    assert step["effect"] == "damping_fade" and step["rms_after"] < step["rms_before"]
+    p = asked["final"]["parameters"]
+    assert p["damp_gain"] >= 0.8, p
+    assert p["damp_vd"] == pytest.approx(vd, rel=0.15), p
+    f = spec.friction
+    for k in ("Fc", "Fs", "sigma2"):
+        assert p[k] == pytest.approx(getattr(f, k), rel=0.03), (k, p)
+    assert asked["final"]["rms_error"] <= 1.3 * own["final"]["rms_error"], (asked["final"], own["final"])
+    assert not asked["unexplained"]["structured"], asked["unexplained"]["evidence"]
