@@ -18,7 +18,8 @@ from bench.effects import EFFECTS, Context, Effect, get
 from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
 from bench.identify import is_identifiable
-from bench.rounds import (close_calls, close_text, hidden_calls, hidden_text, lighter_text,
+from bench.rounds import (FADE_DECIDES, close_calls, close_text, fade_contenders, fade_text,
+                          hidden_calls, hidden_text, lighter_text,
                           round_winner)
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
@@ -355,13 +356,20 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 contexts[-1] = cur.ctx
             continue  # every contender was rejected: screen again without them
         _, sc, ev = round_winner(results)
+        decided = ""
+        collinear = [] if forced else fade_contenders(results)
+        if collinear:
+            faded = _fade_beside(data, collinear, cv, meta, inertia, chain)
+            if faded:
+                sc, ev = faded[0]
+                decided = fade_text(faded[1])
         explained = 1.0 - (ev.rms / cur.rms) ** 2
         close = close_calls(results, sc)
         hidden = [h for h in hidden_calls(results, sc, inertia) if h[0] not in dict(close)]
         steps.append(Step(effect=sc.effect, significant=sc.significant, forced=forced_step(sc, add),
                           rms_before=cur.rms, rms_after=ev.rms,
                           evidence=get(sc.effect).evidence(ev.model.values, explained, ev.ctx)
-                          + close_text(close, ev.rms) + hidden_text(hidden, ev.rms)
+                          + close_text(close, ev.rms) + decided + hidden_text(hidden, ev.rms)
                           + lighter_text(ev.model.values, model.values, ev.rms, cur.rms, inertia),
                           values=dict(ev.model.values), screens=screens, close=close + [h[:2] for h in hidden]))
         contexts.append(ev.ctx)
@@ -477,6 +485,28 @@ def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
     res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=20)  # a local polish
     return Model(values=res.values, effects=list(model.effects), params=params, result=res,
                  owner=dict(model.owner))
+
+
+def _fade_beside(data: FitData, contenders: list[tuple], cv: CrossValidation, meta: dict,
+                 inertia: float, chain: float):
+    """Each contender (``rounds.fade_contenders``) refitted with a fading bristle damping beside it (``rounds.FADE_DECIDES``).
+    Returns ((screen, evaluation) of the contender lowest with it, [(effect, error alone, with
+    it)]), or None when the fade does not lower every one's error that much.  The step keeps
+    the contender's own model: the fade only decides, it is named when asked for."""
+    fade = get("damping_fade")
+    rows = []
+    for _, sc, ev in contenders:
+        n_eff = len(ev.r) * effective_sample_fraction(ev.r)
+        fs = screen(fade, ev.ctx, ev.model, ev.J, cv, ev.sse, cv.sse_across_directions(ev.J, ev.r), n_eff)
+        if fs is None:
+            return None
+        model, _ = refit(data, ev.model, fade, fs.init, fs.beta, inertia, ctx=ev.ctx, others=fs.others)
+        with_fade = _evaluate(data, model, cv, meta, inertia, chain)
+        if not fade.credible(model.values, ev.ctx) or with_fade.rms > FADE_DECIDES * ev.rms:
+            return None
+        rows.append((with_fade.rms, sc, ev))
+    _, sc, ev = min(rows, key=lambda r: r[0])
+    return (sc, ev), [(s.effect, e.rms, r) for r, s, e in rows]
 
 
 def forced_step(sc: Screen, add: list[str] | None) -> bool:

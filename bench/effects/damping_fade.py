@@ -9,7 +9,9 @@ tuning seeds 1530-1557) were analysed with a constant sigma1.  With v_d at a thi
 the Stribeck velocity 1/alpha, the transitions LuGre then mis-fitted were taken for an inertia
 error, a torque lag or gravity that were not there, or hid true ones: 6 wrong stories in 8
 records with "nothing left" (j1 20 % heavy told as gravity, j3's 4 ms lag as an inertia error).
-At v_d = 1/alpha the difference stays within the noise (four joints named right).
+At v_d = 1/alpha the difference stays within the noise (four joints named right).  The
+diagnosis fits it beside the contenders one sine hardly tells apart (``bench.rounds``) and
+names it when asked (``--add damping_fade``).
 """
 from __future__ import annotations
 
@@ -43,7 +45,8 @@ class DampingFade(Effect):
     # there, promised 0.40 -> 0.37 where the fade's own fit reaches 0.075 (the clean record's
     # floor, every LuGre value within 2 %); on j1 (1550) its held-out gain, 0.2 % of Fc, is
     # below what the diagnosis names.  Beside a 20 % inertia error or a 4 ms lag, fitting the
-    # fade first bent LuGre to Fc ~ 0 (1551, 1555): its place in the order is not yet known.
+    # fade first bent LuGre to Fc ~ 0 (1551, 1555).  There it decides instead which of an
+    # inertia error, a lag or gravity the round adds (``bench.rounds.FADE_DECIDES``).
     auto = False
 
     def variants(self, ctx: Context) -> list[dict]:
