@@ -19,6 +19,7 @@ from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
 from bench.identify import is_identifiable
 from bench.rounds import (FADE_DECIDES, close_calls, close_text, fade_contenders, fade_text,
+                          light_gear, over_gear_text,
                           hidden_calls, hidden_text, lighter_text,
                           round_winner)
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
@@ -363,13 +364,19 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
             if faded:
                 sc, ev = faded[0]
                 decided = fade_text(faded[1])
+        if not forced and light_gear(get(sc.effect), ev.model.values, inertia) and "damping_fade" not in model.names():
+            fade = _fade_over_gear(data, cur, ev, cv, meta, inertia, chain)
+            if fade:
+                decided = over_gear_text(sc.effect, ev.rms)
+                sc, ev = fade
         explained = 1.0 - (ev.rms / cur.rms) ** 2
-        close = close_calls(results, sc)
-        hidden = [h for h in hidden_calls(results, sc, inertia) if h[0] not in dict(close)]
+        fought = any(r[1] is sc for r in results)   # not the fade that took a gear's place
+        close = close_calls(results, sc) if fought else []
+        hidden = [h for h in hidden_calls(results, sc, inertia) if h[0] not in dict(close)] if fought else []
         steps.append(Step(effect=sc.effect, significant=sc.significant, forced=forced_step(sc, add),
                           rms_before=cur.rms, rms_after=ev.rms,
                           evidence=get(sc.effect).evidence(ev.model.values, explained, ev.ctx)
-                          + close_text(close, ev.rms) + decided + hidden_text(hidden, ev.rms)
+                          + close_text(close, ev.rms, decided) + hidden_text(hidden, ev.rms)
                           + lighter_text(ev.model.values, model.values, ev.rms, cur.rms, inertia),
                           values=dict(ev.model.values), screens=screens, close=close + [h[:2] for h in hidden]))
         contexts.append(ev.ctx)
@@ -507,6 +514,25 @@ def _fade_beside(data: FitData, contenders: list[tuple], cv: CrossValidation, me
         rows.append((with_fade.rms, sc, ev))
     _, sc, ev = min(rows, key=lambda r: r[0])
     return (sc, ev), [(s.effect, e.rms, r) for r, s, e in rows]
+
+
+def _fade_over_gear(data: FitData, cur: Evaluated, gear: Evaluated, cv: CrossValidation, meta: dict,
+                    inertia: float, chain: float):
+    """A fading bristle damping fitted beside ``cur``'s model, when it leaves no more held-out
+    error than the gear effect that won the round (``gear``) and explains what the diagnosis
+    names (``MIN_EXPLAINED_SIZE``): (its screen, its evaluation), else None."""
+    fade = get("damping_fade")
+    n_eff = len(cur.r) * effective_sample_fraction(cur.r)
+    fs = screen(fade, cur.ctx, cur.model, cur.J, cv, cur.sse, cv.sse_across_directions(cur.J, cur.r), n_eff)
+    if fs is None:
+        return None
+    model, _ = refit(data, cur.model, fade, fs.init, fs.beta, inertia, ctx=cur.ctx, others=fs.others)
+    ev = _evaluate(data, model, cv, meta, inertia, chain)
+    gain = math.sqrt(max(cur.rms ** 2 - ev.rms ** 2, 0.0))
+    if not fade.credible(model.values, cur.ctx) or ev.rms > gear.rms or gain < MIN_EXPLAINED_SIZE * data.coulomb:
+        return None
+    fs.significant = True
+    return fs, ev
 
 
 def forced_step(sc: Screen, add: list[str] | None) -> bool:
