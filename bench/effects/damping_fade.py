@@ -10,8 +10,9 @@ the Stribeck velocity 1/alpha, the transitions LuGre then mis-fitted were taken 
 error, a torque lag or gravity that were not there, or hid true ones: 6 wrong stories in 8
 records with "nothing left" (j1 20 % heavy told as gravity, j3's 4 ms lag as an inertia error).
 At v_d = 1/alpha the difference stays within the noise (four joints named right).  The
-diagnosis fits it beside the contenders one sine hardly tells apart (``bench.rounds``) and
-names it when asked (``--add damping_fade``).
+diagnosis fits it beside the contenders one sine hardly tells apart, to decide between them,
+and against a light gear that wins a round, naming it when it leaves no more
+(``bench.rounds``); and whenever asked (``--add damping_fade``).
 """
 from __future__ import annotations
 
@@ -46,7 +47,8 @@ class DampingFade(Effect):
     # floor, every LuGre value within 2 %); on j1 (1550) its held-out gain, 0.2 % of Fc, is
     # below what the diagnosis names.  Beside a 20 % inertia error or a 4 ms lag, fitting the
     # fade first bent LuGre to Fc ~ 0 (1551, 1555).  There it decides instead which of an
-    # inertia error, a lag or gravity the round adds (``bench.rounds.FADE_DECIDES``).
+    # inertia error, a lag or gravity the round adds (``bench.rounds.FADE_DECIDES``), and is
+    # named in place of a light gear that leaves more (``bench.rounds.LIGHT_GEAR``).
     auto = False
 
     def variants(self, ctx: Context) -> list[dict]:
