@@ -19,8 +19,7 @@ from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
 from bench.identify import is_identifiable
 from bench.rounds import (FADE_DECIDES, close_calls, close_text, fade_contenders, fade_text,
-                          light_gear, over_gear_text,
-                          hidden_calls, hidden_text, lighter_text,
+                          hidden_calls, hidden_text, light_gear, lighter_text, over_gear_text,
                           round_winner)
 from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
                              model_columns, screen)
@@ -496,10 +495,10 @@ def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
 
 def _fade_beside(data: FitData, contenders: list[tuple], cv: CrossValidation, meta: dict,
                  inertia: float, chain: float):
-    """Each contender (``rounds.fade_contenders``) refitted with a fading bristle damping beside it (``rounds.FADE_DECIDES``).
-    Returns ((screen, evaluation) of the contender lowest with it, [(effect, error alone, with
-    it)]), or None when the fade does not lower every one's error that much.  The step keeps
-    the contender's own model: the fade only decides, it is named when asked for."""
+    """Each contender (``rounds.fade_contenders``) refitted with a fading bristle damping
+    beside it.  Returns ((screen, evaluation) of the contender lowest with it, [(effect, error
+    alone, with it)]), or None unless the fade lowers every one's error to ``FADE_DECIDES``.
+    The step keeps the contender's own model: here the fade only decides."""
     fade = get("damping_fade")
     rows = []
     for _, sc, ev in contenders:

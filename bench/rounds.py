@@ -138,7 +138,7 @@ def lighter_text(values: dict, before: dict, rms: float, rms_before: float, iner
 # them, whatever its cause.
 COLLINEAR = frozenset({"inertia_error", "gravity", "torque_lag", "torque_offset"})
 # A bristle damping that fades with speed (``bench.effects.damping_fade``) fitted beside each
-# tied contender decides the round when it lowers every one's held-out error to this share or
+# such contender decides the round when it lowers every one's held-out error to this share or
 # below.  Independent simulator with LuGre's sigma1 exp(-(v/vd)^2), vd a third to a fifth of
 # 1/alpha (tuning seeds 1551-1556, 2026-11-29): five wrong stories (a 20 % inertia error told
 # as gravity, 4 ms lags as an inertia error or gravity), each contender's error 0.52-0.71x
