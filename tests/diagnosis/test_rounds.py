@@ -68,3 +68,33 @@ def test_a_step_that_lightens_the_model_more_than_it_cuts_the_error_says_so():
     assert lighter_text({"inertia_error": -36.1}, {}, 11.84, 21.37, 180.0) == ""
     assert lighter_text({"inertia_error": 50.0}, {}, 4.56, 4.60, 250.0) == ""        # heavier
     assert lighter_text({"inertia_error": -125.6}, {}, 11.43, 12.74, 0.0) == ""      # friction column
+
+
+def test_a_fading_damping_decides_only_between_contenders_one_sine_hardly_tells_apart():
+    from bench.rounds import fade_contenders
+    # 1552's round: an inertia error 7.7 ahead of the true lag on the criterion
+    collinear = [_result(-1257.8, "inertia_error", 0.1257), _result(-1230.6, "torque_lag", 0.1314),
+                 _result(-1250.1, "gravity", 0.1261)]
+    assert [r[1].effect for r in fade_contenders(collinear)] == ["inertia_error", "torque_lag", "gravity"]
+    # a spring winning, or a lone collinear contender: the criterion decides as before
+    assert fade_contenders([_result(-80.0, "joint_flexibility", 0.12), _result(-79.0, "inertia_error", 0.15)]) == []
+    assert fade_contenders([_result(-80.0, "gravity", 0.12), _result(-70.0, "cogging", 0.15)]) == []
+
+
+def test_a_round_the_fade_decided_says_so_not_that_the_lower_error_did():
+    from bench.rounds import fade_text
+    decided = fade_text([("torque_lag", 4.74, 0.866), ("inertia_error", 5.05, 0.693)])
+    text = close_text([("torque_lag", 4.74)], 5.05, decided)
+    assert "the lower one decided" not in text and "inertia_error 5.05 -> 0.693" in text
+    assert text.count(" — ") == 1 and "; decided with a bristle damping" in text
+    assert close_text([], 5.05, decided) == decided
+
+
+def test_only_a_light_gear_is_held_against_the_fade():
+    from bench.effects import get
+    from bench.rounds import light_gear
+    backlash, spring = get("backlash"), get("joint_flexibility")
+    assert light_gear(backlash, {backlash.load_key: 13.5}, 250.0)        # 5 %: 1560's play
+    assert not light_gear(spring, {spring.load_key: 75.0}, 250.0)        # 30 %: a true spring
+    assert not light_gear(get("gravity"), {}, 250.0)
+    assert not light_gear(backlash, {backlash.load_key: 0.0}, 0.0)       # a friction-torque record
