@@ -143,8 +143,8 @@ COLLINEAR = frozenset({"inertia_error", "gravity", "torque_lag", "torque_offset"
 # 1/alpha (tuning seeds 1551-1556, 2026-11-29): five wrong stories (a 20 % inertia error told
 # as gravity, 4 ms lags as an inertia error or gravity), each contender's error 0.52-0.71x
 # with the fade beside it, and the true one lowest by 9-35 %.  On 19 records without a fade
-# (a felt disturbance of 1-2 % of Fc, inertia errors, lags, gravity; 1970-1992) no contender's
-# error fell below 0.8x and no story changed.
+# (a felt disturbance of 1-2 % of Fc, inertia errors, lags, gravity; 1970-1992) no story
+# changed (whether the fade decided there was not logged).
 FADE_DECIDES = 0.8
 
 
