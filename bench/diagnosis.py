@@ -493,24 +493,33 @@ def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
                  owner=dict(model.owner))
 
 
+def _with_fade(data: FitData, base: Evaluated, cv: CrossValidation, meta: dict, inertia: float,
+               chain: float):
+    """A fading bristle damping screened and refitted beside ``base``'s model: (its screen, its
+    evaluation), or None when it does not screen or is not credible."""
+    fade = get("damping_fade")
+    n_eff = len(base.r) * effective_sample_fraction(base.r)
+    fs = screen(fade, base.ctx, base.model, base.J, cv, base.sse, cv.sse_across_directions(base.J, base.r), n_eff)
+    if fs is None:
+        return None
+    model, _ = refit(data, base.model, fade, fs.init, fs.beta, inertia, ctx=base.ctx, others=fs.others)
+    if not fade.credible(model.values, base.ctx):
+        return None
+    return fs, _evaluate(data, model, cv, meta, inertia, chain)
+
+
 def _fade_beside(data: FitData, contenders: list[tuple], cv: CrossValidation, meta: dict,
                  inertia: float, chain: float):
     """Each contender (``rounds.fade_contenders``) refitted with a fading bristle damping
     beside it.  Returns ((screen, evaluation) of the contender lowest with it, [(effect, error
     alone, with it)]), or None unless the fade lowers every one's error to ``FADE_DECIDES``.
     The step keeps the contender's own model: here the fade only decides."""
-    fade = get("damping_fade")
     rows = []
     for _, sc, ev in contenders:
-        n_eff = len(ev.r) * effective_sample_fraction(ev.r)
-        fs = screen(fade, ev.ctx, ev.model, ev.J, cv, ev.sse, cv.sse_across_directions(ev.J, ev.r), n_eff)
-        if fs is None:
+        faded = _with_fade(data, ev, cv, meta, inertia, chain)
+        if faded is None or faded[1].rms > FADE_DECIDES * ev.rms:
             return None
-        model, _ = refit(data, ev.model, fade, fs.init, fs.beta, inertia, ctx=ev.ctx, others=fs.others)
-        with_fade = _evaluate(data, model, cv, meta, inertia, chain)
-        if not fade.credible(model.values, ev.ctx) or with_fade.rms > FADE_DECIDES * ev.rms:
-            return None
-        rows.append((with_fade.rms, sc, ev))
+        rows.append((faded[1].rms, sc, ev))
     _, sc, ev = min(rows, key=lambda r: r[0])
     return (sc, ev), [(s.effect, e.rms, r) for r, s, e in rows]
 
@@ -520,15 +529,12 @@ def _fade_over_gear(data: FitData, cur: Evaluated, gear: Evaluated, cv: CrossVal
     """A fading bristle damping fitted beside ``cur``'s model, when it leaves no more held-out
     error than the gear effect that won the round (``gear``) and explains what the diagnosis
     names (``MIN_EXPLAINED_SIZE``): (its screen, its evaluation), else None."""
-    fade = get("damping_fade")
-    n_eff = len(cur.r) * effective_sample_fraction(cur.r)
-    fs = screen(fade, cur.ctx, cur.model, cur.J, cv, cur.sse, cv.sse_across_directions(cur.J, cur.r), n_eff)
-    if fs is None:
+    faded = _with_fade(data, cur, cv, meta, inertia, chain)
+    if faded is None:
         return None
-    model, _ = refit(data, cur.model, fade, fs.init, fs.beta, inertia, ctx=cur.ctx, others=fs.others)
-    ev = _evaluate(data, model, cv, meta, inertia, chain)
+    fs, ev = faded
     gain = math.sqrt(max(cur.rms ** 2 - ev.rms ** 2, 0.0))
-    if not fade.credible(model.values, cur.ctx) or ev.rms > gear.rms or gain < MIN_EXPLAINED_SIZE * data.coulomb:
+    if ev.rms > gear.rms or gain < MIN_EXPLAINED_SIZE * data.coulomb:
         return None
     fs.significant = True
     return fs, ev

@@ -140,8 +140,8 @@ def damping(v, ev):
 
 # The additive torque is linear in these slots, column by column of ``additive_columns``:
 # a fit evaluates it as a weighted sum of fixed (filtered) columns instead of re-evaluating
-# the sines at every call (``bench.fitting.predict``).  The level and viscous multipliers are
-# not linear and depend only on these slots:
+# the sines at every call (``bench.fitting.predict``).  The level, viscous and damping
+# multipliers are not linear and depend only on these slots:
 ADDITIVE_SLOTS = (OFFSET, GRAV_SIN, GRAV_COS) + tuple(range(COG_COEF, COG_COEF + 2 * COG_HARMONICS))
 LEVEL_SLOTS = (ASYM, PF_PITCH) + tuple(range(PF_COEF, PF_COEF + 2 * PF_HARMONICS)) + (THERM_GAIN, THERM_TAU, THERM_VISC,
                                                                                    DAMP_GAIN, DAMP_VD)
