@@ -21,7 +21,8 @@ import math
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
-from numba import njit
+
+from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 
 PARAMETER_NAMES = ("Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2")
 UNITS = {  # for a revolute joint; a prismatic joint reads N and m

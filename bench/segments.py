@@ -10,8 +10,9 @@ extension are padded less: their samples lie inside filter edges and are never s
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from scipy import signal
+
+from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 
 
 def filtfilt_segments(sos: np.ndarray, x: np.ndarray, bounds: np.ndarray,

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit
 from scipy import signal
 
+from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 from bench.errors import InputError
 from bench.lugre import interval_to_samples
 from bench.records import Record

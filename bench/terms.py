@@ -29,8 +29,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 from bench.lugre import bristle_step, stribeck_level
 
 OFFSET = 0

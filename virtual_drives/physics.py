@@ -24,8 +24,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 from bench.terms import BACKLASH, LOAD_FRICTION, load_step, load_step_friction
 from bench.terms import motor_step as _substep
 from bench.terms import substeps_for

@@ -26,9 +26,9 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numba import njit
 from scipy.signal import lfilter
 
+from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 from bench import terms
 from bench.errors import InputError
 from bench.lugre import LuGreParams, interval_to_samples
