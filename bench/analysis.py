@@ -14,7 +14,8 @@ import numpy as np
 
 from bench import plots
 from bench.checkpoint import checkpoint
-from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose, drop_absorbers
+from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose
+from bench.pruning import drop_absorbers
 from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
 from bench.effects.joint_flexibility import searched_frequencies
 from bench.effects.periodic import PositionSeries

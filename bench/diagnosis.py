@@ -12,108 +12,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from bench.effects import EFFECTS, Context, Effect, get
 from bench.errors import InputError
-from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, predict
+from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param
 from bench.identify import is_identifiable
+from bench.pruning import backward_pass
+from bench.refit import Evaluated, evaluate, refit, refit_without
 from bench.rounds import (FADE_DECIDES, close_calls, close_text, fade_contenders, fade_text,
                           hidden_calls, hidden_text, light_gear, lighter_text, over_gear_text,
                           round_winner)
-from bench.screening import (MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen,
-                             model_columns, screen)
+from bench.screening import MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen, screen
 from bench.signals import effective_sample_fraction
 from bench.unexplained import MIN_SIZE_MOSTLY
-
-
-def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
-    """The effect's parameters, started at the screened values.  A linear step can overshoot
-    a positive (log-scale) parameter; it is then kept within a factor 4 of its start."""
-    start = {k: init[k] + beta.get(k, 0.0) for k in init}
-    positive = {p.name for p in effect.params(init) if p.log}
-    for k in positive:
-        start[k] = float(np.clip(start[k], init[k] / 4.0, init[k] * 4.0))
-    params = effect.params(start)
-    out = []
-    for p in params:
-        if p.name in effect.hyper:  # searched: refine locally only (within its own bounds)
-            x = p.to_x(p.value)
-            width = 0.2 if p.name.endswith("pitch") else 3.0
-            p = Param(p.name, p.value, p.log, max(x - width, p.lo), min(x + width, p.hi))
-        out.append(p)
-    return out
-
-
-def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
-          inertia: float, ctx: Context | None = None, rounds: int = 3,
-          others: list[tuple[dict, dict]] = ()) -> tuple[Model, FitResult]:
-    """Fit LuGre, the effects already added and ``effect`` together.
-
-    A missing effect distorts the LuGre fit it was missing from, sometimes into another
-    basin, and the screened (linearised) size of the effect is then only a rough guess.  So
-    besides starting from the current values, LuGre is re-identified (Section III + start
-    search) on the friction estimate with the effects' contribution removed, for the
-    screened effect size and for the effect's own direct estimate if it has one; the
-    cleaning is repeated with the refitted effect values until the cost stops falling.
-
-    ``others``: more screened starts of the effect (init, beta), each refitted the same way;
-    the lowest cost of all wins (``Effect.restarts``)."""
-    fitted = [Param(p.name, model.values[p.name], p.log, p.lo, p.hi)
-              for p in model.params if p.name not in LUGRE_KEYS]
-    appliers = model.appliers + [effect.apply]
-    direct = effect.direct_estimate(ctx) if ctx is not None else None
-    best = None
-
-    def attempt(new, start, values):
-        nonlocal best
-        lugre = [Param(k, start[k], True, math.log(start[k]) - 4, math.log(start[k]) + 4)
-                 for k in LUGRE_KEYS]
-        eff = [Param(p.name, values[p.name], p.log, p.lo, p.hi) for p in fitted + new]
-        res = fit(data, lugre + eff, fixed=dict(values, **start), appliers=appliers, max_nfev=40)
-        if best is None or res.cost < 0.99 * best[1].cost:
-            best = (lugre + eff, res)
-            return True
-        return False
-
-    for i, (init_i, beta_i) in enumerate([(init, beta), *others]):
-        new = _effect_params(effect, init_i, beta_i)
-        screened = dict(model.values, **{p.name: p.value for p in new})
-        own = direct if i == 0 else None      # the direct estimate does not depend on the start
-        candidates = [screened] + ([dict(screened, **own)] if own else [])
-        attempt(new, {k: model.values[k] for k in LUGRE_KEYS}, screened)
-        if own and all(k in own for k in LUGRE_KEYS):   # an estimate with its own LuGre
-            attempt(new, {k: own[k] for k in LUGRE_KEYS}, dict(screened, **own))
-        # always re-identify as well: the screening's linearised promise can be far worse than
-        # the true optimum, so a local refit that "meets" it may still sit in the wrong basin
-        for values in candidates:
-            for _ in range(rounds):
-                improved = False
-                for start in _cleaned_starts(data, values, appliers, inertia):
-                    improved |= attempt(new, start, values)
-                if not improved:
-                    break
-                values = dict(best[1].values)
-    params, res = best
-    owner = dict(model.owner, **{p.name: effect.name for p in new})
-    return Model(values=res.values, effects=model.effects + [effect], params=params, result=res,
-                 owner=owner), res
-
-
-def _cleaned_starts(data: FitData, values: dict, appliers, inertia: float) -> list[dict]:
-    """LuGre starting points identified on the friction estimate minus the effects."""
-    from bench.identify import NotIdentifiable, lugre_starts, section3_estimates
-    try:
-        clean = cleaned(data, values, appliers)
-        starts = lugre_starts(clean, section3_estimates(clean, inertia, revolute=data.revolute), inertia)
-    except (NotIdentifiable, ValueError, FloatingPointError):
-        return []
-    # ...and each with the current presliding parameters: an effect distorts the map more
-    # than the bristles, and the start search's sigma1 can be far off (36 for a true 8900 on j1
-    # with a viscous warm-up: the fit from it fell into alpha = 2, Fc -28 %; from the current
-    # sigma0/sigma1 it found the truth at half the cost; independent records, 2026-11-25)
-    pre = {k: values[k] for k in ("sigma0", "sigma1")}
-    return starts + [dict(s, **pre) for s in starts if any(s[k] != pre[k] for k in pre)]
 
 
 @dataclass
@@ -173,27 +83,6 @@ class Diagnosis:
         return out
 
 
-@dataclass
-class Evaluated:
-    """A model scored on held-out cycles."""
-    model: Model
-    ctx: Context
-    J: np.ndarray
-    r: np.ndarray
-    sse: np.ndarray
-    rms: float
-
-
-def _evaluate(data: FitData, model: Model, cv: CrossValidation, meta: dict, inertia: float,
-              chain_mse: float = 0.0) -> Evaluated:
-    base = predict(data, model.values, model.appliers)
-    ctx = Context(data=data, values=model.values, model=base, meta=meta, inertia=inertia, chain_mse=chain_mse)
-    J = model_columns(data, model, base, cv.idx)
-    r = ctx.residual[cv.idx]
-    sse = cv.sse(J, r)
-    return Evaluated(model, ctx, J, r, sse, math.sqrt(sse.sum() / cv.counts().sum()))
-
-
 def _contenders(screens: list[Screen], limit: int = 3) -> list[Screen]:
     """The top significant candidate, plus any other significant one whose screened
     remaining error is within 2x of it: a linearised screen around a distorted fit cannot
@@ -234,7 +123,7 @@ class _Replay:
         model = Model(values={k: baseline.values[k] for k in LUGRE_KEYS},
                       params=[Param(k, baseline.values[k]) for k in LUGRE_KEYS])
         self.model, self.cv = model, CrossValidation(twin)
-        self.cur = _evaluate(twin, model, self.cv, meta, inertia)
+        self.cur = evaluate(twin, model, self.cv, meta, inertia)
         self.n_eff = len(self.cur.r) * effective_sample_fraction(self.cur.r)
         self.across = self.cv.sse_across_directions(self.cur.J, self.cur.r)
 
@@ -279,7 +168,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
     model = start = Model(values={k: baseline.values[k] for k in LUGRE_KEYS},
                           params=[Param(k, baseline.values[k]) for k in LUGRE_KEYS], result=baseline)
     cv = CrossValidation(data)
-    cur = _evaluate(data, model, cv, meta, inertia, chain)
+    cur = evaluate(data, model, cv, meta, inertia, chain)
     baseline_rms = cur.rms
     for e in forced:
         if not e.applicable(cur.ctx):
@@ -330,7 +219,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
             if not forced_step(sc, add) and effect.reshapes_levels and levels_lost(model.result, new_model.result):
                 rejected.add(sc.effect)
                 continue
-            ev = _evaluate(data, new_model, cv, meta, inertia, chain)
+            ev = evaluate(data, new_model, cv, meta, inertia, chain)
             if not forced_step(sc, add) and not effect.holds(new_model.values, ev.ctx):
                 rejected.add(sc.effect)
                 continue
@@ -338,7 +227,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 # nested control: the refit also re-optimises LuGre (and the effects already
                 # in); refit without the new effect from those values, and credit the effect
                 # only with what it explains beyond that
-                control = _evaluate(data, _refit_without(data, model, new_model), cv, meta, inertia, chain)
+                control = evaluate(data, refit_without(data, model, new_model), cv, meta, inertia, chain)
                 if control.rms < cur.rms:
                     improved_base = control
                 if ev.rms ** 2 > (1.0 - MIN_EXPLAINED) * min(control.rms, cur.rms) ** 2:
@@ -381,116 +270,10 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
         contexts.append(ev.ctx)
         cur = ev
     if len([s for s in steps if not s.forced]) > 1:
-        cur = _backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms, chain)
+        cur = backward_pass(data, cur, steps, cv, meta, inertia, baseline_rms, chain)
         contexts.append(cur.ctx)
     return Diagnosis(baseline_rms=baseline_rms, final_rms=cur.rms, model=cur.model, steps=steps,
                      remaining=screens, contexts=contexts, cv=cv, start=start, chain_mse=chain)
-
-
-def _without(data: FitData, model: Model, name: str) -> Model:
-    """``model`` minus effect ``name``, the rest refitted locally from their current values."""
-    gone = {k for k, owner in model.owner.items() if owner == name}
-    base = Model(values={k: v for k, v in model.values.items() if k not in gone},
-                 effects=[e for e in model.effects if e.name != name],
-                 params=[p for p in model.params if p.name not in gone],
-                 owner={k: o for k, o in model.owner.items() if o != name})
-    return _refit_without(data, base, base)
-
-
-def _backward_pass(data, cur: Evaluated, steps: list[Step], cv, meta, inertia, baseline_rms,
-                   chain: float = 0.0) -> Evaluated:
-    """Forward selection can add an effect that a later one makes unnecessary (an inertia
-    error mimicking part of a Stribeck shape, say).  Try removing each automatically added
-    effect; drop it when it no longer explains MIN_EXPLAINED of the held-out variance."""
-    for step in [s for s in steps if not s.forced]:
-        trial = _evaluate(data, _without(data, cur.model, step.effect), cv, meta, inertia, chain)
-        if cur.rms ** 2 > (1.0 - MIN_EXPLAINED) * trial.rms ** 2:
-            step.removed = True
-            step.evidence += f" — but not needed once {', '.join(e.name for e in trial.model.effects)} " \
-                             f"was added (held-out rms {trial.rms:.3g} without it)"
-            cur = trial
-    _rechain(steps, baseline_rms, cur.rms)
-    return cur
-
-
-def _rechain(steps: list[Step], baseline_rms: float, final_rms: float) -> None:
-    """The reported chain of errors follows the effects that stayed."""
-    kept = [s for s in steps if not s.removed]
-    if len(kept) < len(steps):
-        before = baseline_rms
-        for s in kept:
-            s.rms_before = before
-            before = s.rms_after
-        if kept:
-            kept[-1].rms_after = final_rms
-
-
-# An effect that must be the whole story (``Effect.whole_only``: a gear with friction on both
-# sides) is not credited when the structure left beside it is this share of what it removed.
-# A saturating torque constant partly taken for such a gear (test seeds 5902, 5903, 5909) left
-# 0.63-0.68 of what the gear removed; 2 mrad of backlash with all the friction beyond it, from
-# an independent simulator with a bouncier contact than ours (tests/diagnosis/
-# test_independent_records.py, seed 9132), 0.07.
-WHOLE_LEFT = 0.25
-
-
-def drop_absorbers(data: FitData, diag: Diagnosis, meta: dict, inertia: float, leftover) -> Diagnosis:
-    """No wrong story: an effect that only absorbed part of a structure it does not explain is
-    not credited.  ``leftover(residual)`` names the state signals a *structured* final
-    residual depends on (empty when nothing is left).  If what the final model leaves still
-    depends on an added effect's own signals (cogging fitted to a cubic in position, say), its
-    physics did not hold: it is dropped and the verdict speaks of physics outside the
-    library.  So is an effect that removed less than the structure left behind: it took a
-    part of something larger, not its cause.  Effects the user forced with --add stay."""
-    while True:
-        relies, left = leftover(data.friction - diag.contexts[-1].model)
-        top = set(relies[:2])
-
-        def removed(s):
-            return math.sqrt(max(s.rms_before ** 2 - (s.rms_after or 0.0) ** 2, 0.0))
-        kept = [s for s in diag.steps if not s.removed and not s.forced]
-        suspects = [s for s in kept if top & set(get(s.effect).signals)] if relies else []
-        suspects += [s for s in kept if relies and removed(s) < left and s not in suspects]
-        whole = [s for s in kept if relies and get(s.effect).whole_only(s.values)
-                 and left >= WHOLE_LEFT * removed(s) and s not in suspects]
-        suspects += whole
-        broken = {id(s): why for s in kept if s not in suspects
-                  and (why := get(s.effect).fails_at_end(diag.model.values, diag.contexts[-1]))}
-        suspects += [s for s in kept if id(s) in broken]
-        if not suspects:
-            return diag
-        step = suspects[-1]
-        trial = _evaluate(data, _without(data, diag.model, step.effect), diag.cv, meta, inertia, diag.chain_mse)
-        if not trial.model.effects and diag.start is not None:
-            # nothing credited: LuGre alone, as the baseline had it unless the polish without
-            # the effects did better (a load-side spring on j3, tuning seed 1529: the polish
-            # from a dropped Stribeck exponent's values left 12.6 where the baseline had 8.7)
-            alone = _evaluate(data, diag.start, diag.cv, meta, inertia, diag.chain_mse)
-            trial = alone if alone.rms < trial.rms else trial
-        step.removed = True
-        own = sorted(top & set(get(step.effect).signals))
-        step.evidence += (" — but not credited: " + (
-            broken[id(step)] if id(step) in broken else
-            f"what the model leaves with it still depends on {' and '.join(own)}" if own else
-            f"{get(step.effect).whole_only(step.values)}, and it left a structure of {left:.3g} "
-            f"beside the {removed(step):.3g} it removed" if step in whole else
-            f"it removed {removed(step):.3g}, less than the structure left behind ({left:.3g})")
-            + ", so it only absorbed part of a structure its physics does not explain")
-        diag.model, diag.final_rms = trial.model, trial.rms
-        diag.contexts.append(trial.ctx)
-        _rechain(diag.steps, diag.baseline_rms, trial.rms)
-
-
-def _refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
-    """``model``'s parameters refitted locally, started from the values ``with_effect``
-    reached."""
-    values = {k: with_effect.values[k] for k in model.values}
-    params = [Param(p.name, values[p.name], p.log,
-                    (math.log(values[p.name]) - 4 if p.log else p.lo),
-                    (math.log(values[p.name]) + 4 if p.log else p.hi)) for p in model.params]
-    res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=20)  # a local polish
-    return Model(values=res.values, effects=list(model.effects), params=params, result=res,
-                 owner=dict(model.owner))
 
 
 def _with_fade(data: FitData, base: Evaluated, cv: CrossValidation, meta: dict, inertia: float,
@@ -505,7 +288,7 @@ def _with_fade(data: FitData, base: Evaluated, cv: CrossValidation, meta: dict, 
     model, _ = refit(data, base.model, fade, fs.init, fs.beta, inertia, ctx=base.ctx, others=fs.others)
     if not fade.credible(model.values, base.ctx):
         return None
-    return fs, _evaluate(data, model, cv, meta, inertia, chain)
+    return fs, evaluate(data, model, cv, meta, inertia, chain)
 
 
 def _fade_beside(data: FitData, contenders: list[tuple], cv: CrossValidation, meta: dict,
