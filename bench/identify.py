@@ -364,14 +364,9 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
     for k in LUGRE_KEYS:
         se = res.stderr.get(k)
         identifiable[k] = is_identifiable(res.values[k], se)
-    warnings = []
-    if est["v_max"] * p.alpha < 1.5:
+    if est["v_max"] * p.alpha < MIN_REACH:
         identifiable["alpha"] = False
-        warnings.append(f"the record reaches alpha*|v| = {est['v_max'] * p.alpha:.2f} only: the Stribeck "
-                        "decay is barely traversed, so alpha and Fc trade off; excite faster")
-    pw = p.passivity_warning()
-    if pw:
-        warnings.append(pw)
+    warnings = value_warnings(p, est["v_max"])
     for k in LUGRE_KEYS:
         if not identifiable[k]:
             se = res.stderr.get(k)
@@ -384,6 +379,24 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
                           initial={k: (v if k == "skipped" else _finite_or_none(v)) for k, v in est.items()},
                           inertia=M,
                           data=data, result=res, warnings=warnings)
+
+
+# alpha |v| the record must reach for the Stribeck decay to be traversed (e^-1.5 = 22 % of
+# Fs - Fc left): below it alpha and Fc trade off
+MIN_REACH = 1.5
+
+
+def value_warnings(p: LuGreParams, v_max: float) -> list[str]:
+    """What a LuGre model's values say of the record (the Stribeck decay barely traversed up to
+    the record's top speed ``v_max``) and of the model itself (not passive)."""
+    out = []
+    if v_max * p.alpha < MIN_REACH:
+        out.append(f"the record reaches alpha*|v| = {v_max * p.alpha:.2f} only: the Stribeck "
+                   "decay is barely traversed, so alpha and Fc trade off; excite faster")
+    pw = p.passivity_warning()
+    if pw:
+        out.append(pw)
+    return out
 
 
 def _initial_bristle(data: FitData, est: dict, sigma0: float) -> float:

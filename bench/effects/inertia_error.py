@@ -74,8 +74,17 @@ class InertiaError(Effect):
             return (f"residual is proportional to acceleration: the friction column still carries an "
                     f"inertia term M ~ {dM:.4g}; {explained_text(explained)}; "
                     + column_lag_twin(dM / values["sigma2"], values, "inertia"))
+        k = (M + dM) / M
+        # a torque read k times its true scale moves the joint as friction k times too large
+        # and an inertia error (k - 1) M: tau_read - M qdd = k F + (k - 1) M qdd on any record
+        # (j2 with its torque column x1.1: M ~ 198 for 180, Fc, Fs, sigma2 1.100x; 2026-11-29)
+        scale = (f" — or, alike on any record, the torque is read {k:.3g}x its true scale (a "
+                 f"torque constant or gear ratio {abs(k - 1):.0%} too {'high' if k > 1 else 'low'}) "
+                 f"and every friction level here is {k:.3g}x the true one: check the torque's "
+                 f"scale before the inertia (compensation through the same drive is right "
+                 f"either way)") if k > 0 else ""
         return (f"residual is proportional to acceleration: the declared inertia {M:.4g} is "
-                f"{abs(dM / M):.0%} too {'low' if dM > 0 else 'high'} (M ~ {M + dM:.4g}); "
+                f"{abs(dM / M):.0%} too {'low' if dM > 0 else 'high'} (M ~ {M + dM:.4g}){scale}; "
                 f"{explained_text(explained)}")
 
     def inject(self, kw, ev, spec):
