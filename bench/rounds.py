@@ -38,7 +38,7 @@ def close_calls(results: list[tuple], winner) -> list[tuple[str, float]]:
 
 
 def close_text(close: list[tuple[str, float]], rms: float, decided: str = "") -> str:
-    """``decided``: what decided the round instead of the lower error (``fade_text``)."""
+    """``decided``: what decided the round instead of the lower error (``shape_text``)."""
     # the story was a close call: say so, so that a technician checks the runner-up too
     if not close and not decided:
         return ""
@@ -137,33 +137,46 @@ def lighter_text(values: dict, before: dict, rms: float, rms_before: float, iner
 # small error the model makes at every transition into and out of sliding decides between
 # them, whatever its cause.
 COLLINEAR = frozenset({"inertia_error", "gravity", "torque_lag", "torque_offset"})
-# A bristle damping that fades with speed (``bench.effects.damping_fade``) fitted beside each
-# such contender decides the round when it lowers every one's held-out error to this share or
-# below.  Independent simulator with LuGre's sigma1 exp(-(v/vd)^2), vd a third to a fifth of
-# 1/alpha (tuning seeds 1551-1556, 2026-11-29): five wrong stories (a 20 % inertia error told
-# as gravity, 4 ms lags as an inertia error or gravity), each contender's error 0.52-0.71x
-# with the fade beside it, and the true one lowest by 9-35 %.  On 19 records without a fade
-# (a felt disturbance of 1-2 % of Fc, inertia errors, lags, gravity; 1970-1992) no story
-# changed (whether the fade decided there was not logged).
-FADE_DECIDES = 0.8
+# The errors LuGre's own law can make at every transition, each fitted beside every such
+# contender: the Stribeck dip's shape (the original LuGre paper writes it exp(-(v/vs)^2), the
+# one we follow exp(-alpha|v|)) and a bristle damping that fades with speed.  The one that
+# leaves the lowest error decides the round.
+SHAPE_TERMS = ("stribeck_shape", "damping_fade")
+# ... when it lowers every contender's held-out error to this share or below.  Independent
+# simulator with LuGre's sigma1 exp(-(v/vd)^2), vd a third to a fifth of 1/alpha (tuning seeds
+# 1551-1556, 2026-11-29): five wrong stories (a 20 % inertia error told as gravity, 4 ms lags
+# as an inertia error or gravity), each contender's error 0.52-0.71x with the fade beside it,
+# and the true one lowest by 9-35 %.  On 19 records without a fade (a felt disturbance of 1-2 %
+# of Fc, inertia errors, lags, gravity; 1970-1992) no story changed.  With a Gaussian dip
+# (delta = 2, tuning seeds 1590-1594) the fade alone decided for gravity over a true inertia
+# error or lag on j2 (3.43 -> 2.6 where the exponent leaves 1.29).
+SHAPE_DECIDES = 0.8
 
 
-def fade_contenders(results: list[tuple]) -> list[tuple]:
-    """The round's contenders (criterion, screen, evaluation) a fading damping decides between:
-    every one of the kind one sine hardly tells apart, when the round's winner is of that kind
-    and so is another.  The criterion's margin between them is that small error's own: 7.7 for
-    an inertia error over a true lag's 4 ms (j3, tuning seed 1552), ties elsewhere."""
+def shape_contenders(results: list[tuple]) -> list[tuple]:
+    """The round's contenders (criterion, screen, evaluation) a transition's shape decides
+    between: every one of the kind one sine hardly tells apart, when the round's winner is of
+    that kind and so is another.  The criterion's margin between them is that small error's
+    own: 7.7 for an inertia error over a true lag's 4 ms (j3, tuning seed 1552), ties elsewhere."""
     won = round_winner(results)[1].effect
     pick = [r for r in results if r[1].effect in COLLINEAR]
     return pick if won in COLLINEAR and len(pick) > 1 else []
 
 
-def fade_text(errors: list[tuple[str, float, float]]) -> str:
-    """``errors``: (effect, held-out error alone, with a fading damping beside it)."""
-    each = ", ".join(f"{name} {alone:.3g} -> {faded:.3g}" for name, alone, faded in errors)
-    return (f" — decided with a bristle damping that fades with speed fitted beside each of "
-            f"them ({each}): LuGre's constant sigma1 left an error at every transition that "
-            f"would have decided the plain comparison; bench analyze --add damping_fade shows the fade")
+# what a technician is told each shape term is, and how to see it
+_SHAPE_WORDS = {
+    "damping_fade": ("a bristle damping that fades with speed", "LuGre's constant sigma1"),
+    "stribeck_shape": ("the Stribeck dip's own shape (an exponent)", "LuGre's exp(-alpha|v|) dip"),
+}
+
+
+def shape_text(term: str, errors: list[tuple[str, float, float]]) -> str:
+    """``errors``: (effect, held-out error alone, with ``term`` beside it)."""
+    what, own = _SHAPE_WORDS[term]
+    each = ", ".join(f"{name} {alone:.3g} -> {shaped:.3g}" for name, alone, shaped in errors)
+    return (f" — decided with {what} fitted beside each of them ({each}): {own} left an error "
+            f"at every transition that would have decided the plain comparison; bench analyze "
+            f"--add {term} shows it")
 
 
 # Effects that act at the transitions into and out of sliding as a fading damping does: one of

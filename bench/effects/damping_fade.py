@@ -47,7 +47,7 @@ class DampingFade(Effect):
     # floor, every LuGre value within 2 %); on j1 (1550) its held-out gain, 0.2 % of Fc, is
     # below what the diagnosis names.  Beside a 20 % inertia error or a 4 ms lag, fitting the
     # fade first bent LuGre to Fc ~ 0 (1551, 1555).  There it decides instead which of an
-    # inertia error, a lag or gravity the round adds (``bench.rounds.FADE_DECIDES``), and is
+    # inertia error, a lag or gravity the round adds (``bench.rounds.SHAPE_DECIDES``), and is
     # named in place of a light gear that leaves more (``bench.rounds.LIGHT_GEAR``).
     auto = False
 

@@ -71,19 +71,19 @@ def test_a_step_that_lightens_the_model_more_than_it_cuts_the_error_says_so():
 
 
 def test_a_fading_damping_decides_only_between_contenders_one_sine_hardly_tells_apart():
-    from bench.rounds import fade_contenders
+    from bench.rounds import shape_contenders
     # 1552's round: an inertia error 7.7 ahead of the true lag on the criterion
     collinear = [_result(-1257.8, "inertia_error", 0.1257), _result(-1230.6, "torque_lag", 0.1314),
                  _result(-1250.1, "gravity", 0.1261)]
-    assert [r[1].effect for r in fade_contenders(collinear)] == ["inertia_error", "torque_lag", "gravity"]
+    assert [r[1].effect for r in shape_contenders(collinear)] == ["inertia_error", "torque_lag", "gravity"]
     # a spring winning, or a lone collinear contender: the criterion decides as before
-    assert fade_contenders([_result(-80.0, "joint_flexibility", 0.12), _result(-79.0, "inertia_error", 0.15)]) == []
-    assert fade_contenders([_result(-80.0, "gravity", 0.12), _result(-70.0, "cogging", 0.15)]) == []
+    assert shape_contenders([_result(-80.0, "joint_flexibility", 0.12), _result(-79.0, "inertia_error", 0.15)]) == []
+    assert shape_contenders([_result(-80.0, "gravity", 0.12), _result(-70.0, "cogging", 0.15)]) == []
 
 
 def test_a_round_the_fade_decided_says_so_not_that_the_lower_error_did():
-    from bench.rounds import fade_text
-    decided = fade_text([("torque_lag", 4.74, 0.866), ("inertia_error", 5.05, 0.693)])
+    from bench.rounds import shape_text
+    decided = shape_text("damping_fade", [("torque_lag", 4.74, 0.866), ("inertia_error", 5.05, 0.693)])
     text = close_text([("torque_lag", 4.74)], 5.05, decided)
     assert "the lower one decided" not in text and "inertia_error 5.05 -> 0.693" in text
     assert text.count(" — ") == 1 and "; decided with a bristle damping" in text
