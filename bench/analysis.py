@@ -21,7 +21,7 @@ from bench.effects.joint_flexibility import searched_frequencies
 from bench.effects.periodic import PositionSeries
 from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
-from bench.identify import MIN_REACH, Identification, identify, is_identifiable, value_warnings
+from bench.identify import Identification, identify, judged
 from bench.perfect_model import replay, torque_step
 from bench.reading_warnings import reading_warnings
 from bench.predictability import assess_predictability
@@ -55,29 +55,20 @@ class Analysis:
         if d.model.effects:  # the model with effects is the better estimate of LuGre too
             doc["parameters"] = lugre
             doc["uncertainty"] = {k: final.stderr.get(k) for k in LUGRE_KEYS}
-            doc["identifiable"] = {k: is_identifiable(lugre[k], final.stderr.get(k)) for k in LUGRE_KEYS}
-            v_max = self.ident.initial.get("v_max") or 0.0
-            if v_max * lugre["alpha"] < MIN_REACH:
-                doc["identifiable"]["alpha"] = False
+            v_max = self.ident.initial.get("v_max")     # as identify judged the baseline with
+            v_max = float("nan") if v_max is None else v_max
+            doc["identifiable"], own = judged(final, v_max)
             doc["fit"] = dict(doc["fit"], rms_error=final.rms, nrmse=final.nrmse,
                               fit_percent=100.0 * (1.0 - final.nrmse))
-            # the LuGre-only fit's "not identifiable" warnings speak of the baseline: the
-            # model with its effects (an offset absorbed into Fc, say) may pin them down
+            # the LuGre-only fit's judgement of its values (not identifiable, not passive, the
+            # Stribeck reach) speaks of the baseline: the model with its effects (an offset
+            # absorbed into Fc; the linear stage's baseline bent to Fc ~ 1e-4 by a torque read
+            # 0.92x its scale, "not passive") has its own, which stands in its place
             before = doc["baseline"]["warnings"] = doc.get("warnings", [])
-            # ... and so do its values' warnings (the linear stage's baseline, bent to Fc ~ 1e-4
-            # by a torque read 0.92x its scale, was "not passive"; its final model is not):
-            # those of the final values stand in their place
-            stale = value_warnings(self.ident.params, v_max)
-            kept = [w for w in before if w not in stale
-                    and not any(w.startswith(f"{k} is not identifiable") and doc["identifiable"][k]
-                                for k in LUGRE_KEYS)]
+            stale = set(judged(self.ident.result, v_max)[1])
             at = next((i for i, w in enumerate(before) if w in stale), len(before))
-            pos = sum(1 for w in before[:at] if w in kept)
-            lost = [f"{k} is not identifiable from this record"
-                    + (f" (standard error {se:.3g})" if (se := final.stderr.get(k)) is not None else "")
-                    for k in LUGRE_KEYS if not doc["identifiable"][k]
-                    and not any(w.startswith(f"{k} is not identifiable") for w in kept)]
-            doc["warnings"] = kept[:pos] + value_warnings(final.lugre(), v_max) + kept[pos:] + lost
+            doc["warnings"] = ([w for w in before[:at] if w not in stale] + own
+                               + [w for w in before[at:] if w not in stale])
         doc["diagnosis"] = d.entries()
         doc["final"] = {"effects": d.model.names(),
                         "parameters": {k: float(v) for k, v in d.model.values.items()},

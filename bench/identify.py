@@ -360,18 +360,7 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
             est = section3_estimates(data, M, name, revolute)
             res = _fit_lugre(data, est, M, other_basins=True)
     p = res.lugre()
-    identifiable = {}
-    for k in LUGRE_KEYS:
-        se = res.stderr.get(k)
-        identifiable[k] = is_identifiable(res.values[k], se)
-    if est["v_max"] * p.alpha < MIN_REACH:
-        identifiable["alpha"] = False
-    warnings = value_warnings(p, est["v_max"])
-    for k in LUGRE_KEYS:
-        if not identifiable[k]:
-            se = res.stderr.get(k)
-            warnings.append(f"{k} is not identifiable from this record"
-                            + (f" (standard error {se:.3g})" if se is not None else ""))
+    identifiable, warnings = judged(res, est["v_max"])
     fitq = {"rms_error": res.rms, "nrmse": res.nrmse, "fit_percent": 100.0 * (1.0 - res.nrmse),
             "samples": data.n, "effective_sample_fraction": res.n_eff_fraction,
             "cutoff_hz": data.c.cutoff, "excitation_hz": data.c.frequency, "torque_hold": hold}
@@ -397,6 +386,24 @@ def value_warnings(p: LuGreParams, v_max: float) -> list[str]:
     if pw:
         out.append(pw)
     return out
+
+
+def judged(res: FitResult, v_max: float) -> tuple[dict, list[str]]:
+    """A fit's LuGre values judged: which the record determines (the report's identifiable;
+    alpha only where the record traverses the Stribeck decay) and the warnings that go with
+    them (``value_warnings``, then each value not determined).  The baseline's in
+    ``identify``, the final model's in ``bench.analysis``."""
+    identifiable = {k: is_identifiable(res.values[k], res.stderr.get(k)) for k in LUGRE_KEYS}
+    p = res.lugre()
+    if v_max * p.alpha < MIN_REACH:
+        identifiable["alpha"] = False
+    warnings = value_warnings(p, v_max)
+    for k in LUGRE_KEYS:
+        if not identifiable[k]:
+            se = res.stderr.get(k)
+            warnings.append(f"{k} is not identifiable from this record"
+                            + (f" (standard error {se:.3g})" if se is not None else ""))
+    return identifiable, warnings
 
 
 def _initial_bristle(data: FitData, est: dict, sigma0: float) -> float:
