@@ -17,6 +17,7 @@ and the old advice holds: delete the ``*.nbi``/``*.nbc`` caches after editing a 
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from pathlib import Path
@@ -28,32 +29,19 @@ __all__ = ["njit"]
 
 # the packages whose kernels call each other; tests/ keeps its independent simulator apart
 _ROOTS = tuple(str(Path(__file__).resolve().parent.parent / name) for name in ("bench", "virtual_drives"))
-_memo: dict[tuple, bytes] = {}
 
 
-def _kernel_files() -> list[str]:
-    files = []
-    for root in _ROOTS:
-        for entry in sorted(os.scandir(root), key=lambda e: e.name):
-            if entry.name.endswith(".py") and entry.is_file():
-                files.append(entry.path)
-    return files
-
-
+@functools.cache
 def kernels_digest() -> bytes:
-    """SHA-256 over the source of every module that defines a kernel (checked by content:
-    a module counts once ``njit`` appears in it)."""
-    files = _kernel_files()
-    key = tuple((f, os.stat(f).st_mtime_ns, os.stat(f).st_size) for f in files)
-    if key not in _memo:
-        h = hashlib.sha256()
-        for f in files:
-            text = Path(f).read_bytes()
+    """SHA-256 over the source of every module that defines a kernel (a module counts once
+    ``njit`` appears in it), read once per process: numba compiles or loads each kernel once."""
+    h = hashlib.sha256()
+    for root in _ROOTS:
+        for path in sorted(Path(root).glob("*.py")):
+            text = path.read_bytes()
             if b"njit" in text:
-                h.update(f.encode() + b"\0" + text)
-        _memo.clear()
-        _memo[key] = h.digest()
-    return _memo[key]
+                h.update(str(path).encode() + b"\0" + text)
+    return h.digest()
 
 
 def _ours(py_file: str) -> bool:
