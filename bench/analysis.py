@@ -76,7 +76,8 @@ class Analysis:
         doc["steps"] = [{"effect": s.effect, "forced": s.forced, "significant": s.significant,
                          "rms_before": s.rms_before, "rms_after": s.rms_after, "evidence": s.evidence,
                          "candidates": [{"effect": c.effect, "explained": c.explained,
-                                         "explained_across_directions": c.explained_across, "t": c.t_stat,
+                                         "explained_across_directions": c.explained_across,
+                                         "explained_halves": c.explained_halves, "t": c.t_stat,
                                          "significant": c.significant} for c in s.screens]}
                         for s in d.steps]
         alpha = lugre["alpha"]

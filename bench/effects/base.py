@@ -115,8 +115,9 @@ class Effect:
     name: str = ""
     summary: str = ""
     hyper: tuple[str, ...] = ()       # nonlinear parameters found by search, not screened
-    # a function of position must explain one direction of motion when fitted on the other;
-    # only meaningful where the term is not collinear with Fc within one direction
+    # a function of position must explain one direction of motion, and one half of the travel,
+    # when fitted on the other; only meaningful where the term is not collinear with Fc within
+    # one direction
     direction_test: bool = False
     # the state signals its term depends on (``bench.predictability.FEATURES``): if what the
     # final model leaves still depends on them, the effect only absorbed part of a structure
