@@ -125,7 +125,7 @@ class _Replay:
         self.model, self.cv = model, CrossValidation(twin)
         self.cur = evaluate(twin, model, self.cv, meta, inertia)
         self.n_eff = len(self.cur.r) * effective_sample_fraction(self.cur.r)
-        self.across = self.cv.sse_across(self.cur.J, self.cur.r)
+        self.across = self.cv.sse_across_directions(self.cur.J, self.cur.r)
 
     def explains(self, effect: Effect) -> float:
         """Residual variance the effect removes from the replay (torque units squared)."""
@@ -198,7 +198,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
     while True:
         model = cur.model
         n_eff = len(cur.r) * effective_sample_fraction(cur.r)
-        across_before = cv.sse_across(cur.J, cur.r)
+        across_before = cv.sse_across_directions(cur.J, cur.r)
         asked = {e.name for e in forced}
         candidates = [e for e in EFFECTS.values() if e.name not in model.names() and e.applicable(cur.ctx)
                       and (e.auto or e.name in asked)]
@@ -319,7 +319,7 @@ def _with_term(name: str, data: FitData, base: Evaluated, cv: CrossValidation, m
     evaluation), or None when it does not screen or is not credible."""
     term = get(name)
     n_eff = len(base.r) * effective_sample_fraction(base.r)
-    fs = screen(term, base.ctx, base.model, base.J, cv, base.sse, cv.sse_across(base.J, base.r), n_eff)
+    fs = screen(term, base.ctx, base.model, base.J, cv, base.sse, cv.sse_across_directions(base.J, base.r), n_eff)
     if fs is None:
         return None
     model, _ = refit(data, base.model, term, fs.init, fs.beta, inertia, ctx=base.ctx, others=fs.others)

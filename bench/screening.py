@@ -77,7 +77,7 @@ class Screen:
     score: float
     significant: bool
     size: float = 0.0           # the effect's fitted term at its largest (99th percentile of |term|)
-    explained_halves: float = float("nan")   # fitted on one half of the travel, scored on the other
+    explained_halves: float = float("nan")   # position series: ``explained_across_halves``
     others: list = field(default_factory=list)   # the other variants' (init, beta), best first
 
 
@@ -139,14 +139,12 @@ class CrossValidation:
             out[inf] = rr[inf] - 2 * b[inf] @ beta + np.einsum("i,bij,j->b", beta, G[inf], beta)
         return np.maximum(out, 0.0)
 
-    def sse_across(self, X: np.ndarray, r: np.ndarray, groups: np.ndarray | None = None) -> float:
-        """Squared error of r on each direction of motion after fitting X on the other
-        (``groups``: another split in two; ``half`` is the two halves of the travel)."""
-        groups = self.direction if groups is None else groups
-        if groups.all() or not groups.any():
+    def sse_across_directions(self, X: np.ndarray, r: np.ndarray) -> float:
+        """Squared error of r on each direction of motion after fitting X on the other."""
+        if self.direction.all() or not self.direction.any():
             return float("nan")
         Xs = X / self._scale(X)
-        G, b, rr = self._grams(Xs, r, groups, 2)
+        G, b, rr = self._grams(Xs, r, self.direction, 2)
         total = 0.0
         for k in (0, 1):
             beta = self._solve(G[1 - k], b[1 - k])
@@ -251,7 +249,7 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         mse_after = float(sse_after.sum() / counts.sum())
         explained = 1.0 - mse_after / mse_before if mse_before > 0 else 0.0
         t, consistent = consistency(sse_before, sse_after, counts, explained)
-        across = 1.0 - cv.sse_across(full, r) / across_before if across_before > 0 else 0.0
+        across = 1.0 - cv.sse_across_directions(full, r) / across_before if across_before > 0 else 0.0
         across = across if math.isfinite(across) else 0.0
         halves = cv.explained_across_halves(J, X, r) if effect.direction_test else float("nan")
         score = n_eff * math.log(max(mse_after, 1e-300)) + len(keys) * math.log(max(n_eff, 2.0))
