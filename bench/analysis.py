@@ -77,7 +77,9 @@ class Analysis:
                          "rms_before": s.rms_before, "rms_after": s.rms_after, "evidence": s.evidence,
                          "candidates": [{"effect": c.effect, "explained": c.explained,
                                          "explained_across_directions": c.explained_across,
-                                         "explained_halves": c.explained_halves, "t": c.t_stat,
+                                         # null where not tested (not a position series)
+                                         "explained_halves": (c.explained_halves if math.isfinite(c.explained_halves)
+                                                              else None), "t": c.t_stat,
                                          "significant": c.significant} for c in s.screens]}
                         for s in d.steps]
         alpha = lugre["alpha"]
