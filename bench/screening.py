@@ -256,6 +256,8 @@ def screen(effect: Effect, ctx: Context, model: Model, J: np.ndarray, cv: CrossV
         beta_all = cv.fit_all(full, r)
         beta = {k: float(b) for k, b in zip(keys, beta_all[J.shape[1]:])}
         term = X @ beta_all[J.shape[1]:]
+        # a NaN share (the travel not split, or the series explains nothing on its own halves)
+        # is no evidence against it
         positional = not effect.direction_test or (across >= MIN_EXPLAINED_ACROSS
                                                     and not halves < HALVES_SHARE)
         s = Screen(effect.name, init, beta, mse_before, mse_after, explained, across, t, score,

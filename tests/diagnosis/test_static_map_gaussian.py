@@ -9,11 +9,11 @@ seed 1595).  A function of position must also carry from one half of the travel 
 Independent simulator, fresh seeds 5712-5726."""
 import json
 
-import pytest
-
 from bench.analysis import analyze_record
 from independent_joint import independent_record
+from virtual_drives.conditions import make_record
 from virtual_drives.presets import PRESETS
+from virtual_drives.scenarios import random_effects
 
 from tests.record_pool import map_records
 
@@ -36,13 +36,10 @@ def test_no_library_effect_is_credited_for_a_static_map_and_the_residual_is_flag
         assert doc["unexplained"]["structured"], (case, doc["unexplained"]["evidence"])
 
 
-@pytest.mark.parametrize("joint", ["j2"])
-def test_a_true_position_dependent_friction_carries_across_the_halves(joint):
-    """The same rule keeps a true series on the same joint: seed fresh, our own generator."""
-    from virtual_drives.conditions import make_record
-    from virtual_drives.scenarios import random_effects
-    texts = random_effects(PRESETS[joint], ["position_dependent_friction"], 5726, 20.0)
-    rec, _ = make_record(PRESETS[joint], "clean", seed=5726, effects=tuple(texts))
+def test_a_true_position_dependent_friction_carries_across_the_halves():
+    """The same rule keeps a true series on the same joint (j2): seed fresh, our own generator."""
+    texts = random_effects(PRESETS["j2"], ["position_dependent_friction"], 5726, 20.0)
+    rec, _ = make_record(PRESETS["j2"], "clean", seed=5726, effects=tuple(texts))
     doc = analyze_record(rec).report()
     assert doc["final"]["effects"] == ["position_dependent_friction"], doc["final"]["effects"]
     step = doc["steps"][0]
