@@ -134,6 +134,25 @@ def test_analyze_csv_body_and_multipart(operator):
     assert r.status_code == 200, r.text
 
 
+def test_analyze_names_a_hidden_effect_and_answers_strict_json(operator):
+    """An upload whose diagnosis names an effect: the report carries its steps (each with its
+    candidates' scores), and the answer is strict JSON (a NaN score once answered 500 here)."""
+    import json
+
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(preset("rotary"), "clean", seed=5730, duration=8.0,
+                         effects=("cogging:amplitude=0.02,pitch=0.3",))
+    r = operator.post("/analyze", content=rec.to_csv(), headers={"content-type": "text/csv"}, timeout=180)
+    assert r.status_code == 200, r.text
+
+    def refuse(name):
+        raise AssertionError(f"not strict JSON: {name}")
+    doc = json.loads(r.text, parse_constant=refuse)
+    assert doc["final"]["effects"] == ["cogging"], doc["final"]["effects"]
+    assert doc["steps"][0]["effect"] == "cogging" and doc["steps"][0]["candidates"]
+    assert doc["unexplained"]["structured"] is False
+
+
 def _slow_record_csv() -> str:
     """A j1 record whose full analysis took 135 s in the worker here (2026-11-28): the motor's
     torque constant falls at high current, physics the library lacks, so the diagnosis refits

@@ -102,3 +102,18 @@ def test_virtual_joint_steps_like_the_batch_simulation_when_geared():
     assert np.allclose(qs, batch.true_q, atol=1e-12)
     rigid = simulate_record(spec, *spec.excitation, 0.4, torque_noise=0.0, encoder_resolution=0.0, tau=tau)
     assert np.max(np.abs(batch.true_q - rigid.true_q)) > 1e-3     # the gear changed the motion
+
+
+def test_a_load_against_a_stiff_friction_law_converges_at_any_sub_step():
+    """The load's implicit step under the law a LuGre fit bends to on a sharp static map
+    (sigma0 8e12, a 0.4 mrad/s Stribeck rise, as fitted on j4, test seed 5725): the same path at
+    7 and 64 sub-steps.  The secant's guard once held the step to the chord's slope (huge
+    there), so it crawled its 30 iterations unconverged: paths 0.8 rad apart."""
+    _, (gap, w2, c2) = _gear("joint_flexibility:frequency=11,damping=0.05")
+    t = np.arange(4000) * 1e-3
+    qm = 0.5 * np.sin(2 * np.pi * 0.5 * t)
+    p = np.array([600.0, 0.07, 2750.0, 1.0, 8e12, 2100.0, 3300.0])
+    (q7, F7), (q64, F64) = (terms.load_trajectory_friction(qm, 1e-3, n, gap, w2, c2, p, 2.0 / 45, 0.0)
+                            for n in (7, 64))
+    assert np.max(np.abs(q7 - q64)) < 1e-6
+    assert np.max(np.abs(F7 - F64)) < 1e-3 * np.std(F64)
