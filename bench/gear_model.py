@@ -109,9 +109,10 @@ def gear_friction_terms(data: FitData, width: float, frequency: float, damping: 
         ev = terms.empty()
         ev[terms.BACKLASH], ev[terms.FLEX_FREQ], ev[terms.FLEX_DAMP] = width, frequency, damping
         gap, w2, c2 = terms.coupling(ev)
-        # the locked-rotor mode as above, and the load's own presliding as the motor's
-        rate = max(math.sqrt(w2) / 0.25, math.sqrt(kappa * p[4]) / 0.5, kappa * (p[5] + p[6]))
-        n_sub = int(min(64, max(1, math.ceil(c.dt * rate))))
+        # the locked-rotor mode as above, and the load's own presliding as the motor's, up to
+        # what the samples see (``terms.SEEN_SUBSTEPS``)
+        mode = min(64, math.ceil(c.dt * math.sqrt(w2) / 0.25))
+        n_sub = max(1, mode, terms.substeps_for(c.dt, 1.0 / kappa, p[4], p[5], p[6], terms.SEEN_SUBSTEPS))
         rel = np.empty_like(c.q_full)
         friction = np.empty_like(c.q_full)
         path = np.empty_like(c.q_full)
