@@ -91,7 +91,8 @@ class Analysis:
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, d.noise_floor,
                                     self.predictability(), data.coulomb, d.replay_rms,
                                     lugre=(doc["parameters"], doc["uncertainty"]),
-                                    load_encoder=self.record.load_encoder)
+                                    load_encoder=self.record.load_encoder,
+                                    torque_unit="N·m" if data.revolute else "N")
         return doc
 
     def predictability(self) -> dict:

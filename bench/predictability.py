@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from bench.checkpoint import checkpoint
-from bench.level_drift import level_change
+from bench.level_drift import bias, level_change
 from bench.signals import paired_t
 
 # Held-out fraction of residual variance the learner must predict, and the consistency of its
@@ -116,7 +116,7 @@ def assess_predictability(c, residual: np.ndarray, cv, explain: bool = True) -> 
     scored[cv.idx] = True
     out = {"predicted_fraction": predicted, "t": t,
            "structured_rms": scale * math.sqrt(max(predicted, 0.0)), "relies_on": [],
-           "importance": {}, "level": level_change(c, residual, scored)}
+           "importance": {}, "level": level_change(c, residual, scored), "bias": bias(c, residual, scored)}
     if explain and predicted > 0:
         rng = np.random.default_rng(0)
         for j, name in enumerate(FEATURES):

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.level_drift import changes
+from bench.level_drift import biased, changes
 from bench.predictability import MIN_PREDICTED, T_CRIT
 from bench.signals import Conditioned, held_torque, second_difference
 
@@ -156,14 +156,15 @@ def rising_map(params: dict, stderr: dict) -> str | None:
 
 def assess(final: dict, rms: float | None, floor: float | None, predictability: dict,
            friction_level: float, replay_rms: float = 0.0, lugre: tuple[dict, dict] | None = None,
-           load_encoder: bool = False) -> dict:
+           load_encoder: bool = False, torque_unit: str = "N·m") -> dict:
     """The verdict on a final residual: its breakdown (``bench.residuals.breakdown``), the
     final held-out ``rms``, the measurement noise ``floor`` (reported, not decisive), the
     ``predictability`` of the residual from the state signals and the joint's Coulomb level.
     ``lugre``: the final LuGre parameters and their standard errors; a map they make rise from
     rest (``rising_map``) is physics outside the library however small the residual.
     ``load_encoder``: the record's encoder is on the load, where a gear is fitted only with
-    all its friction on the motor."""
+    all its friction on the motor.  A constant torque left (``bench.level_drift.bias``) is
+    structure the state learner cannot see."""
     out = _assess(final, rms, floor, predictability, friction_level, replay_rms)
     bent = rising_map(*lugre) if lugre is not None else None
     out["rising_map"] = bent is not None
@@ -175,6 +176,24 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
         else:
             out.update(structured=True, look_for=[look],
                        evidence=f"the residual is noise, but only because {bent}; look for {look}")
+    b = predictability.get("bias")
+    out["bias"] = b
+    if b is not None and biased(b, friction_level, MIN_SIZE):
+        # only the verdict: the analysis's own choices (absorbers, the gear passes) rest on
+        # ``structured``, which was tuned without it
+        what = (f"a constant torque of {b['bias']:+.3g} {torque_unit} ({100 * abs(b['bias']) / friction_level:.2g} % of the "
+                f"Coulomb level) is left, the same in both directions of motion and in every motion segment "
+                f"(t = {b['t']:.1f}); noise has no mean")
+        look = ("a torque offset, gravity, or friction levels that differ between the directions (the same in "
+                "sliding): bench analyze --add torque_offset, gravity or direction_asymmetry fits them")
+        out["look_for"].append(look)
+        told = f"the final model leaves a structured residual: {what}; look for {look}"
+        if not out["structured"]:
+            out.update(structured=True, evidence=told)
+        elif abs(b["bias"]) >= out["structured_rms"]:      # the larger part first
+            out["evidence"] = f"{told}.  Besides, {out['evidence']}"
+        else:
+            out["evidence"] += f"; and {what}: look for {look}"
     if load_encoder and out["structured"]:
         gear = ("this record's encoder is on the load, where a gear is fitted only with all its "
                 "friction on the motor: record the motor side to have friction beyond the gear fitted")
