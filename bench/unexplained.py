@@ -182,7 +182,7 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
         # only the verdict: the analysis's own choices (absorbers, the gear passes) rest on
         # ``structured``, which was tuned without it
         what = (f"a constant torque of {b['bias']:+.3g} {torque_unit} ({100 * abs(b['bias']) / friction_level:.2g} % of the "
-                f"Coulomb level) is left, the same in both directions of motion and in every motion segment "
+                f"Coulomb level) is left, the same in both directions of motion and consistent across the motion segments "
                 f"(t = {b['t']:.1f}); noise has no mean")
         look = ("a torque offset, gravity, or friction levels that differ between the directions (the same in "
                 "sliding): bench analyze --add torque_offset, gravity or direction_asymmetry fits them")
