@@ -108,7 +108,8 @@ def test_a_load_against_a_stiff_friction_law_converges_at_any_sub_step():
     """The load's implicit step under the law a LuGre fit bends to on a sharp static map
     (sigma0 8e12, a 0.4 mrad/s Stribeck rise, as fitted on j4, test seed 5725): the same path at
     7 and 64 sub-steps.  The secant's guard once held the step to the chord's slope (huge
-    there), so it crawled its 30 iterations unconverged: paths 0.8 rad apart."""
+    there), so it crawled its 30 iterations unconverged: paths 0.8 rad apart at 1 and 64
+    sub-steps (and this test failed)."""
     _, (gap, w2, c2) = _gear("joint_flexibility:frequency=11,damping=0.05")
     t = np.arange(4000) * 1e-3
     qm = 0.5 * np.sin(2 * np.pi * 0.5 * t)
