@@ -212,7 +212,7 @@ def _assess(final: dict, rms: float | None, floor: float | None, predictability:
                  "predicted_t": p["t"], "structured_rms": p["structured_rms"],
                  "structured_vs_coulomb": size, "relies_on": list(p["relies_on"]),
                  "correlation_time_ratio": ratio, "noise_floor": floor, "rms_vs_noise_floor": above,
-                 "concentrated_in": None, "direction": None, "follows": None, "look_for": [],
+                 "concentrated_in": None, "direction": None, "follows": None, "tied_with": [], "look_for": [],
                  "level_change": p.get("level"), "evidence": ""}
     pct = 100.0 * max(p["predicted_fraction"], 0.0)
     if not out["structured"]:
@@ -234,8 +234,16 @@ def _assess(final: dict, rms: float | None, floor: float | None, predictability:
             if sig in SIGNALS:
                 out["look_for"].append(SIGNALS[sig][1])
         if p["relies_on"]:
-            parts.append("it depends on " + " and ".join(SIGNALS[k][0] for k in p["relies_on"][:2] if k in SIGNALS))
+            shown = [k for k in p["relies_on"][:2] if k in SIGNALS]
+            parts.append("it depends on " + " and ".join(SIGNALS[k][0] for k in shown))
             out["follows"] = {"signal": p["relies_on"][0], "importance": p["importance"][p["relies_on"][0]]}
+            alike = list(dict.fromkeys(o for k in shown for o in p.get("tied", {}).get(k, []) if o not in shown))
+            if alike:   # the learner's pick among tied signals is arbitrary: give all their physics
+                out["tied_with"] = alike
+                parts[-1] += (f", or as well on {' or '.join(SIGNALS[k][0] for k in alike)}: on this record these "
+                              f"follow from one another (one repeated excitation ties them), so it cannot say which; "
+                              f"a record with two tones or amplitudes (bench simulate --excitation two-tone) tells them apart")
+                out["look_for"] += [SIGNALS[k][1] for k in alike]
     if level_changes(p, friction_level):
         lv = p["level"]
         parts.append(f"{'and ' if parts else 'the final model leaves a structured residual that no effect in the library explains: '}"

@@ -16,6 +16,13 @@ joint's own friction and excitation:
 - ``load_dependent_friction``: a gear's tooth friction grows with the torque it carries (as in
   harmonic drives), an extra mu |tau| opposing the motion, 8-20 % of Fc at the sine's peak
   torque.  It is a friction level that follows the torque, not the speed or the position.
+- ``local_defect``: the friction rises by 10-25 % of Fc over a short stretch of the travel (a
+  dent in a raceway, a chip in the lubricant, a tight spot of a seal): a Gaussian bump of
+  4-10 % of the travel in width, opposing the motion.  A function of position, but not
+  periodic, so no position series describes it.
+
+``excitation="two-tone"`` drives the joint as ``bench simulate --excitation two-tone`` does
+(``virtual_drives.recording``), breaking the cycle lock of the single sine.
 
 The joint is stepped one control period at a time (``VirtualJoint``), the extra torque held
 over the period from its state at the start: these terms change slowly against 1 ms.
@@ -28,22 +35,25 @@ import numpy as np
 
 from bench.records import Record
 from virtual_drives.joint import JointSpec, VirtualJoint, quantise, sine_torque
+from virtual_drives.recording import Recording, open_loop_torque
 from virtual_drives.scenarios import travel_of
 
 KINDS = ("saturating_torque_constant", "nonlinear_viscous", "position_spring",
-         "load_dependent_friction")
+         "load_dependent_friction", "local_defect")
 
 
 def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0,
-                   dt: float = 1e-3, size: tuple[float, float] | None = None) -> tuple[Record, str]:
-    """A record of ``spec`` under its sine test with physics ``kind`` hidden.  Returns the
-    record and a description of what was hidden.  ``size`` (``nonlinear_viscous`` only): the
-    range its peak is drawn from, as a share of the friction at the reference speed."""
+                   dt: float = 1e-3, size: tuple[float, float] | None = None,
+                   excitation: str = "sine") -> tuple[Record, str]:
+    """A record of ``spec`` under its sine test (or two tones) with physics ``kind`` hidden.
+    Returns the record and a description of what was hidden.  ``size`` (``nonlinear_viscous``
+    only): the range its peak is drawn from, as a share of the friction at the reference speed."""
     rng = np.random.default_rng([seed, 29])
     A, f = spec.excitation
     n = int(round(duration / dt))
     t = np.arange(n) * dt
-    cmd = sine_torque(A, f, t)
+    cmd = (sine_torque(A, f, t) if excitation == "sine" else
+           open_loop_torque(spec, Recording(excitation=excitation), t))
     Fc = spec.friction.Fc
     # without the preset's gravity, as the condition records (``virtual_drives.recording.make``):
     # with it a Pi-joint (j2, j4) hangs to one side and never slides upwards
@@ -82,6 +92,13 @@ def outside_record(spec: JointSpec, kind: str, seed: int, duration: float = 20.0
         # mu A / v_c against the inertia) and far below the sliding speeds (1 % of v_ref)
         v_c = max(0.01 * v_ref, 2.0 * dt * mu * A / spec.inertia)
         extra = lambda q, v, tau: -mu * abs(tau) * math.tanh(v / v_c)  # noqa: E731
+    elif kind == "local_defect":
+        h = rng.uniform(0.10, 0.25) * Fc
+        w = rng.uniform(0.04, 0.10) * travel
+        q_d = joint.state.q + rng.uniform(-0.3, 0.3) * travel    # the motion is centred on the start
+        text = f"a local friction defect, +{h / Fc:.2f} Fc at {q_d:.4g} over {w:.3g} (1 sigma)"
+        v_c = 0.01 * v_ref                # sgn v smoothed far below the sliding speeds
+        extra = lambda q, v, tau: -h * math.exp(-0.5 * ((q - q_d) / w) ** 2) * math.tanh(v / v_c)  # noqa: E731
     else:
         raise ValueError(f"unknown kind {kind!r}; known: {', '.join(KINDS)}")
     q = np.empty(n)

@@ -268,7 +268,8 @@ def _closed_loop(q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0, kp, kd,
     return cmd, felt, q, v, z, qi, vi
 
 
-def _open_loop_torque(spec: JointSpec, rec: Recording, t: np.ndarray) -> np.ndarray:
+def open_loop_torque(spec: JointSpec, rec: Recording, t: np.ndarray) -> np.ndarray:
+    """The open-loop torque of a sine or two-tone recording at times t."""
     a = rec.amplitude if rec.amplitude is not None else spec.excitation[0]
     f = rec.frequency if rec.frequency is not None else spec.excitation[1]
     if rec.excitation == "sine":
@@ -343,7 +344,7 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
             q_ref, v_ref, dist, torque_lag / dt, dt, n_sub, M, f.vector(), ev,
             centred(spec), kp, kd, res, spec.torque_limit)
     else:
-        cmd = _open_loop_torque(spec, rec, t - rec.rest)
+        cmd = open_loop_torque(spec, rec, t - rec.rest)
         if still:   # no torque while the joint rests
             cmd = cmd * motion_envelope(t, rec.rest, duration, _slowest(spec, rec), rec.pause)
         felt = lagged(t, cmd, torque_lag) + dist

@@ -23,3 +23,44 @@ def test_a_presliding_residual_names_each_physics_once():
     # the travel signal and the presliding regime point at the same physics: said once
     assert out["evidence"].count("Maxwell-slip") == 1, out["evidence"]
     assert out["evidence"].count("look for") == 1
+
+
+def _kinematics(q, t):
+    import types
+
+    import numpy as np
+    return types.SimpleNamespace(q=q, v=np.gradient(q, t), t=t)
+
+
+def test_one_sine_ties_the_motion_signals_and_two_tones_untie_them():
+    """Under one repeated sine, position and direction give the phase, so the velocity and
+    the travel since reversal follow from the position (and the position from the travel);
+    two incommensurate tones break that."""
+    import numpy as np
+
+    from bench.predictability import features, ties
+    t = np.arange(0.0, 20.0, 0.005)
+    w = 2 * np.pi * 0.3
+    scored = np.arange(len(t))[t > 1 / 0.3][::2]      # after the first cycle, as a record's mask
+    sine = ties(features(_kinematics(0.2 * np.sin(w * t), t), scored))
+    assert set(sine["velocity"]) == {"position", "travel_since_reversal"}, sine
+    assert sine["travel_since_reversal"] == ["position"] and sine["position"] == ["travel_since_reversal"], sine
+    two = ties(features(_kinematics(0.13 * np.sin(w * t) + 0.07 * np.sin(1.618 * w * t + 1.0), t), scored))
+    assert not any(two.values()), two
+
+
+def test_a_residual_on_tied_signals_names_the_physics_of_each():
+    """The learner picked the travel since reversal and the velocity, but on this record the
+    position carries the same (one sine): a local defect along the travel is as likely as
+    backlash, and the evidence says so and how to tell them apart."""
+    final, p = _presliding_residual()
+    alone = assess(final, 25.0, 0.7, dict(p, tied={}), 1500.0)
+    assert alone["tied_with"] == [] and "local defect" not in alone["evidence"]
+    tied = assess(final, 25.0, 0.7, dict(p, tied={"travel_since_reversal": ["position"],
+                                                  "velocity": ["position", "travel_since_reversal"]}), 1500.0)
+    assert tied["tied_with"] == ["position"], tied["tied_with"]
+    assert "a local defect" in tied["evidence"] and "cannot say which" in tied["evidence"]
+    assert "two tones" in tied["evidence"]
+    # what the learner relied on first, then what the tied signal would mean
+    from bench.unexplained import SIGNALS
+    assert tied["look_for"][:2] == alone["look_for"][:2] and SIGNALS["position"][1] in tied["look_for"]
