@@ -31,12 +31,14 @@ def _rates(x, u, d, P, t):
     its pitch, viscous warm-up (relative) and its time constant, constant torque, Coulomb
     level going negative (relative), a sudden change of both levels (relative) and its time,
     Coulomb/Stribeck levels growing with the transmitted torque (mu: added level per |torque|),
-    a static map's regularising speed, the bristle damping's fade speed, Stribeck's exponent."""
+    a static map's regularising speed, the bristle damping's fade speed, Stribeck's exponent,
+    and 1 for Simscape's map in place of the static one."""
     Fc, Fs, al, s0, s1, s2 = P[0], P[1], P[2], P[3], P[4], P[5]
     Jm, Jl, gap, k, c, geared, share = P[6], P[7], P[8], P[9], P[10], P[11], P[12]
     mgl, q0, lag, cog, cog_p, cog_h2 = P[13], P[14], P[15], P[16], P[17], P[18]
     rip, rip_p, warm, warm_t, const, asym = P[19], P[20], P[21], P[22], P[23], P[24]
     jump, jump_t, load_mu, static_eps, s1_vd, dexp = P[25], P[26], P[27], P[28], P[29], P[30]
+    simscape = P[31]
     out = np.zeros(7)
     vm, vl = x[1], x[4]
     # the drive's current loop: a first-order lag between the command and the torque felt
@@ -60,7 +62,14 @@ def _rates(x, u, d, P, t):
     visc = s2 * (1.0 - warm * (1.0 - math.exp(-t / warm_t))) if warm != 0.0 else s2
     # Stribeck's dip, exp(-|v/vs|^dexp): many simulators write it Gaussian (dexp = 2, Armstrong)
     g = scale * (Fc + (Fs - Fc) * math.exp(-abs(al * vm) ** dexp))
-    if static_eps > 0.0:   # a static map, regularised: no bristles, the joint creeps in stick
+    if static_eps > 0.0 and simscape != 0.0:
+        # Simscape's Rotational Friction: sqrt(2e) (Fbrk - Fc) exp(-(v/v_St)^2) v/v_St
+        # + Fc tanh(v/v_Coul) + f v, with v_St = sqrt(2) v_brk and v_Coul = v_brk / 10; here
+        # Fbrk = Fs, v_brk = 10 static_eps; it peaks at Fs at v_brk and starts from Fc, not Fs
+        v_st = math.sqrt(2.0) * 10.0 * static_eps
+        Fm = scale * (math.sqrt(2.0 * math.e) * (Fs - Fc) * math.exp(-(vm / v_st) ** 2) * vm / v_st
+                      + Fc * math.tanh(vm / static_eps)) + visc * vm
+    elif static_eps > 0.0:   # a static map, regularised: no bristles, the joint creeps in stick
         Fm = g * math.tanh(vm / static_eps) + visc * vm
     else:
         zdm = vm - s0 * abs(vm) / g * x[2]
@@ -160,11 +169,13 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     ``static_eps`` replaces the motor's LuGre by a static map, s(v) tanh(v / eps) + sigma2 v,
     as many simulators write friction: no presliding spring, the joint creeps in stick;
     ``sigma1_vd`` fades the motor's bristle damping with speed, sigma1 exp(-(v / vd)^2);
-    ``stribeck_delta`` shapes Stribeck's dip, exp(-|alpha v|^delta) (2: Armstrong's Gaussian)."""
+    ``stribeck_delta`` shapes Stribeck's dip, exp(-|alpha v|^delta) (2: Armstrong's Gaussian);
+    ``simscape`` (with ``static_eps``) writes the static map as Simscape's Rotational Friction
+    block does: breakaway Fs at v_brk = 10 static_eps, Fc at rest and at speed."""
     ph = dict(physics or {})
     unknown = set(ph) - {"mgl", "q0", "lag", "detent", "detent_pitch", "detent_h2", "ripple",
                          "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t", "load_mu",
-                         "static_eps", "sigma1_vd", "stribeck_delta"}
+                         "static_eps", "sigma1_vd", "stribeck_delta", "simscape"}
     assert not unknown, unknown
     rng = np.random.default_rng([seed, 77])
     f = spec.friction
@@ -186,7 +197,8 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("ripple", 0.0), ph.get("ripple_pitch", 1.0), ph.get("warm", 0.0),
                   ph.get("warm_tau", 1.0), ph.get("constant", 0.0), ph.get("asym", 0.0),
                   ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0),
-                  ph.get("static_eps", 0.0), ph.get("sigma1_vd", 0.0), ph.get("stribeck_delta", 1.0)])
+                  ph.get("static_eps", 0.0), ph.get("sigma1_vd", 0.0), ph.get("stribeck_delta", 1.0),
+                  1.0 if ph.get("simscape") else 0.0])
     gains = np.zeros(5)
     if pd is not None:
         wc = 2.0 * math.pi * pd[0]

@@ -125,3 +125,15 @@ def test_a_saturating_torque_constant_logged_at_125_hz_is_not_cogging():
         if credited or not doc["unexplained"]["structured"]:
             wrong.append((seed, text, credited, doc["unexplained"]["evidence"][:160]))
     assert len(wrong) <= 1, wrong
+
+
+def test_a_static_friction_gone_beside_a_structured_residual_is_told_as_a_bent_map():
+    """Fs fitted to nothing is a degenerate fit on a residual of noise (clean j4 under coloured
+    process noise did that), but beside a structured residual it is LuGre bent to a map that
+    builds up from rest (Simscape's friction block: Fc at rest, a breakaway peak above it)."""
+    p, se = {"Fc": 100.0, "Fs": 0.3}, {"Fc": 1.0, "Fs": 1.0}
+    assert rising_map(p, se) is None
+    told = rising_map(p, se, degenerate=True)
+    assert "starts from almost nothing at rest" in told and "breakaway peak" in told
+    assert rising_map(p, {"Fc": None, "Fs": 1.0}, degenerate=True) is None     # not identifiable
+    assert "rises from rest" in rising_map({"Fc": 100.0, "Fs": 90.0}, {"Fc": 1.0, "Fs": 1.0}, degenerate=True)
