@@ -157,7 +157,7 @@ def rising_map(params: dict, stderr: dict, degenerate: bool = False) -> str | No
             fs < DEGENERATE * fc and not degenerate):
         return None
     gone = fs < DEGENERATE * fc
-    return (f"the fitted friction {'starts from almost nothing at rest' if gone else 'rises from rest'} "
+    return (f"the fitted friction {'starts far below its Coulomb level at rest' if gone else 'rises from rest'} "
             f"(Fs = {fs / fc:.2f} Fc, {rise / float(np.hypot(se_c, se_s)):.0f} standard errors below Fc), which "
             f"LuGre's Stribeck decay cannot describe: LuGre was bent to absorb a velocity dependence of another "
             f"shape{' (friction that builds up with speed from rest: a static map with a regularised Coulomb term, a breakaway peak above rest)' if gone else ''}, "

@@ -134,6 +134,6 @@ def test_a_static_friction_gone_beside_a_structured_residual_is_told_as_a_bent_m
     p, se = {"Fc": 100.0, "Fs": 0.3}, {"Fc": 1.0, "Fs": 1.0}
     assert rising_map(p, se) is None
     told = rising_map(p, se, degenerate=True)
-    assert "starts from almost nothing at rest" in told and "breakaway peak" in told
+    assert "starts far below its Coulomb level at rest" in told and "breakaway peak" in told
     assert rising_map(p, {"Fc": None, "Fs": 1.0}, degenerate=True) is None     # not identifiable
     assert "rises from rest" in rising_map({"Fc": 100.0, "Fs": 90.0}, {"Fc": 1.0, "Fs": 1.0}, degenerate=True)
