@@ -59,7 +59,7 @@ def test_a_local_friction_defect_is_unexplained_and_the_hint_names_the_position(
     tight spot of a seal) is a function of position, but no position series.  Under one sine the
     learner relied on the travel since reversal and the velocity, which the position determines
     there, so the hint said backlash or non-linear viscous friction (tuning seeds 1950-1955 and
-    1970-1975: 12 of 12 flagged with nothing credited, 11 of 12 hints without the position's
+    1970-1975: 12 of 12 flagged with nothing credited, 12 of 12 hints without the position's
     physics).  Tied signals now bring their physics too (``bench.predictability.ties``).
     Fresh seeds: measured 9 of 10 (j2 5741 credited position-dependent friction)."""
     jobs = [(("j1", "j2", "j3", "j4", "linear", "rotary")[i % 6], "local_defect", 5740 + i) for i in range(10)]
