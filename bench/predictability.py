@@ -27,7 +27,7 @@ import numpy as np
 
 from bench.checkpoint import checkpoint
 from bench.level_drift import bias, level_change
-from bench.signals import paired_t
+from bench.signals import binned_r2, paired_t
 
 # Held-out fraction of residual variance the learner must predict, and the consistency of its
 # gain across held-out segments (paired t), for "structured".  Measured on tuning seeds
@@ -43,9 +43,10 @@ FEATURES = ("position", "velocity", "direction", "travel_since_reversal", "time"
 # direction give the phase, hence the velocity and the travel since the last reversal, so the
 # learner's choice among them is arbitrary (a local friction defect along the travel was told
 # as "the travel since the last reversal and the velocity").  A signal is tied to another when
-# that other (with the direction) determines it: binned R^2 >= TIED.  Measured 2026-11-29 on
+# that other (with the direction) determines it: binned R^2 >= TIED, as the torque is tied to
+# the position in ``bench.effects.periodic.torque_locked``.  Measured 2026-11-29 on
 # tuning seeds 1960-1965, six joints, our generator: one sine, clean and under coloured
-# process noise, 0.979-0.999 for every pair that a phase determines; two tones, PD tracking
+# process noise, 0.979-1.0 for every pair that a phase determines; two tones, PD tracking
 # and robot joint logs at most 0.92 (the rotary motor's two tones), mostly 0.6-0.85.
 TIED = 0.95
 MOTION = ("position", "velocity", "travel_since_reversal")
@@ -72,29 +73,11 @@ def features(c, idx: np.ndarray) -> dict[str, np.ndarray]:
             "time": np.round((c.t[idx] - c.t[0]) / max(c.t[-1] - c.t[0], 1e-12) * 4.0)}
 
 
-def determined(y: np.ndarray, x: np.ndarray, direction: np.ndarray, per_bin: int = 30) -> float:
-    """How much of y's variance x (within each direction of motion) determines: 1 - the
-    within-bin variance over the total, in bins of ``per_bin`` samples along x.  With n samples
-    an unrelated x still "explains" about per_bin / n (1 % at 3000)."""
-    total = float(np.var(y)) * len(y)
-    if total <= 0.0:
-        return 1.0
-    within = 0.0
-    for side in (-1.0, 1.0):
-        ys = y[direction == side]
-        if len(ys) < 2:
-            continue
-        ys = ys[np.argsort(x[direction == side], kind="stable")]
-        for chunk in np.array_split(ys, max(1, len(ys) // per_bin)):
-            within += float(((chunk - chunk.mean()) ** 2).sum())
-    return 1.0 - within / total
-
-
 def ties(feats: dict) -> dict[str, list[str]]:
     """For each motion signal, the other motion signals that determine it on this record
     (``TIED``): whatever the residual follows through it, they could carry as well."""
-    d = feats["direction"]
-    return {s: [o for o in MOTION if o != s and determined(feats[s], feats[o], d) >= TIED]
+    side = feats["direction"] > 0
+    return {s: [o for o in MOTION if o != s and binned_r2(feats[s], feats[o], side) >= TIED]
             for s in MOTION}
 
 

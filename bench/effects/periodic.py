@@ -8,6 +8,7 @@ import numpy as np
 
 from bench.effects.base import Context, Effect, pitch_grid, position_periodogram, refine_pitch
 from bench.fitting import Param
+from bench.signals import binned_r2
 
 
 def format_length(x: float, unit: str) -> str:
@@ -34,10 +35,7 @@ def torque_locked(ctx: Context, bins: int = 40) -> str:
     q, v, tau = c.q[m], c.v[m], c.tau[m]
     if len(tau) < 4 * bins or not np.var(tau) > 0 or not np.ptp(q) > 0:
         return ""
-    idx = np.clip(np.digitize(q, np.linspace(q.min(), q.max(), bins + 1)) - 1, 0, bins - 1) + bins * (v > 0)
-    counts = np.bincount(idx, minlength=2 * bins)
-    means = np.bincount(idx, tau, minlength=2 * bins) / np.maximum(counts, 1)
-    r2 = 1.0 - float(np.var(tau - means[idx]) / np.var(tau))
+    r2 = binned_r2(tau, q, v > 0, bins)
     if r2 < LOCKED:
         return ""
     return (f"; but here the torque is itself a function of position and direction ({100 * r2:.0f} % of its "
