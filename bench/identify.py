@@ -110,6 +110,13 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str,
         raise NotIdentifiable(f"{name}: the joint never moved")
     hi = speed > 0.6 * vmax
     up, down = int(np.sum(hi & (c.v > 0))), int(np.sum(hi & (c.v < 0)))
+    if min(up, down) < 3 and np.any(c.v > 0) and np.any(c.v < 0):
+        # one direction's moves are slower than the other's (a log whose fast move goes one
+        # way, a homing step at its start): each direction's own top speeds, which the sign
+        # and line checks below still judge (a p2p log of j3, tuning seed 1876: refused)
+        top_up, top_down = (float(np.percentile(np.abs(c.v[s]), 99.5)) for s in (c.v > 0, c.v < 0))
+        hi = ((c.v > 0.6 * top_up) & (c.v > 0)) | ((c.v < -0.6 * top_down) & (c.v < 0))
+        up, down = int(np.sum(hi & (c.v > 0))), int(np.sum(hi & (c.v < 0)))
     if min(up, down) < 3:
         raise NotIdentifiable(
             f"{name}: the joint never reaches sliding in both directions ({up} fast samples moving up, "

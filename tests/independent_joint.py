@@ -101,10 +101,11 @@ def _rates(x, u, d, P, t):
 
 
 @njit(cache=True)
-def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0, pd):
-    """Integrate; ``pd`` = (kp, kd, reference amplitude, its frequency, encoder resolution):
-    with kp > 0 the torque of each period is a PD controller's on the (quantised) motor
-    encoder and its finite-difference velocity, written back into ``u`` (what a log holds)."""
+def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0, pd, ref):
+    """Integrate; ``pd`` = (kp, kd, encoder resolution): with kp > 0 the torque of each
+    period is a PD controller's on the (quantised) motor encoder and its finite-difference
+    velocity, tracking ``ref`` (position, velocity per period), written back into ``u`` (what
+    a log holds)."""
     np.random.seed(seed)
     n = u.shape[0]
     path = np.empty((n * n_sub + 1, 2))
@@ -112,16 +113,15 @@ def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0, pd):
     path[0, 0], path[0, 1] = x[0], x[3]
     a = math.exp(-h / dist_tau) if dist_tau > 0 else 0.0
     d = 0.0
-    kp, kd, amp, w, res = pd[0], pd[1], pd[2], 2.0 * math.pi * pd[3], pd[4]
+    kp, kd, res = pd[0], pd[1], pd[2]
     period = n_sub * h
     q_prev = 0.0
     for i in range(n):
         if kp > 0:
-            tt = i * period
             qe = math.floor(x[0] / res + 0.5) * res if res > 0 else x[0]
             ve = (qe - q_prev) / period if i > 0 else 0.0
             q_prev = qe
-            u[i] = kp * (amp * math.sin(w * tt) - qe) + kd * (amp * w * math.cos(w * tt) - ve)
+            u[i] = kp * (ref[i, 0] - qe) + kd * (ref[i, 1] - ve)
         for j in range(n_sub):
             if dist_std > 0:
                 d = a * d + dist_std * math.sqrt(1.0 - a * a) * np.random.randn()
@@ -144,7 +144,8 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                        disturbance_tau: float = 0.01, torque_noise: float | None = None,
                        resolution: float | None = None, jitter: float = 0.0, drop: float = 0.0,
                        encoder: str = "motor", physics: dict | None = None,
-                       pd: tuple[float, float] | None = None) -> tuple[Record, np.ndarray]:
+                       pd: tuple[float, float] | None = None,
+                       reference=None) -> tuple[Record, np.ndarray]:
     """A record of ``spec``'s joint under its sine test (or ``torque``, held per ``dt``):
     ``backlash`` (total width; the teeth meet through a ``contact_hz`` spring of damping ratio
     ``contact_damping``) and/or a gear spring ``flex_hz``; ``load_share`` of the inertia beyond
@@ -156,7 +157,8 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     ``pd`` = (bandwidth Hz, reference amplitude): closed loop instead, the joint tracking
     amplitude sin(2 pi f t) at the sine test's frequency f under a PD controller of that
     bandwidth (kp = M w^2, kd = 1.4 M w, on the quantised motor encoder), the log holding the
-    controller's torque.
+    controller's torque.  ``reference`` (positions per ``dt``; with ``pd``, whose amplitude
+    it replaces) is tracked instead of the sine: point-to-point moves with dwells, say.
 
     ``physics`` adds, in this simulator's own conventions (not the effect library's): ``mgl``
     and ``q0`` (a link's weight, -mgl sin(q + q0)), ``lag`` (a first-order current loop, s),
@@ -199,13 +201,20 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0),
                   ph.get("static_eps", 0.0), ph.get("sigma1_vd", 0.0), ph.get("stribeck_delta", 1.0),
                   1.0 if ph.get("simscape") else 0.0])
-    gains = np.zeros(5)
+    gains = np.zeros(3)
+    ref = np.zeros((n, 2))
     if pd is not None:
         wc = 2.0 * math.pi * pd[0]
-        gains[:] = (spec.inertia * wc * wc, 1.4 * spec.inertia * wc, pd[1], spec.excitation[1],
-                    spec.encoder_resolution)
+        gains[:] = (spec.inertia * wc * wc, 1.4 * spec.inertia * wc, spec.encoder_resolution)
+        if reference is None:
+            w = 2.0 * math.pi * spec.excitation[1]
+            ref[:, 0], ref[:, 1] = pd[1] * np.sin(w * t), pd[1] * w * np.cos(w * t)
+        else:
+            ref[:, 0] = np.asarray(reference, dtype=float)[:n]
+            ref[:, 1] = np.gradient(ref[:, 0], dt)
         u = np.zeros(n)
-    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7), gains)
+    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7),
+                gains, ref)
     fine_t = np.arange(n * n_sub + 1) * (dt / n_sub)
     ts = np.sort(t + jitter * dt * rng.uniform(-0.5, 0.5, n))
     ts[0] = 0.0
@@ -226,3 +235,36 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     if encoder == "load":
         meta["encoder"] = "load"
     return Record(t=ts, tau=tau, q=q, meta=meta), path
+
+
+def point_to_point(travel: float, half_period: float, duration: float, rng, dt: float = 1e-3,
+                   dwell: tuple[float, float] = (0.3, 1.5), homing: float = 0.0,
+                   moves: tuple[float, float] = (0.6, 1.4)) -> np.ndarray:
+    """A robot's reference (positions per ``dt``) of the shape real joint logs have: minimum-jerk
+    moves of ``moves`` half periods between random targets within ``travel`` (mostly
+    alternating sides), each after a dwell of ``dwell`` half periods.  ``homing`` > 0: the log
+    opens with a move of ``homing`` half periods from 0 to the travel's lower end."""
+    n = int(round(duration / dt))
+    ref = np.zeros(n)
+    pos, side, k = -0.5 * travel * rng.uniform(0.3, 1.0), 1.0, 0
+
+    def move(k, a, b, m):
+        s = np.arange(1, m + 1) / m
+        seg = a + (b - a) * (10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5)
+        ref[k:k + m] = seg[:n - k]
+        return k + m
+
+    if homing > 0:
+        pos = -0.5 * travel
+        k = move(0, 0.0, pos, int(homing * half_period / dt))
+    while k < n:
+        d = int(rng.uniform(*dwell) * half_period / dt)
+        ref[k:k + d] = pos
+        k += d
+        if k >= n:
+            break
+        target = side * 0.5 * travel * rng.uniform(0.3, 1.0)
+        k = move(k, pos, target, int(rng.uniform(*moves) * half_period / dt))
+        pos = target
+        side = -side if rng.uniform() < 0.85 else side
+    return ref

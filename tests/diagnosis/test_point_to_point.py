@@ -1,0 +1,97 @@
+"""Robot joint logs of the shape a working arm writes: point-to-point moves (minimum jerk,
+random targets, mostly alternating sides) under a PD loop, the joint holding its pose between
+them for 0.3-1.5 half periods (dwells shorter than ``bench.standstill``'s cut, so they stay in
+the record), on a jittered lossy logger; from the independent simulator.
+
+Measured on tuning seeds 1800-1895 (2026-11-29, ``point_to_point`` as here): clean joints,
+47 records of six joints under a felt disturbance, reading noise and coloured process noise:
+one effect credited (a Stribeck shape on j2), none flagged; Fc, Fs, sigma2 within 5 % on 37.
+Of the other ten (j1, j3 and j4: their Stribeck dips are 8-10 % of Fc and these moves reach
+alpha v ~ 1-2, so Fc and alpha trade off) seven were reported not identifiable and three
+were 5.2-7 % off without it.  Library effects (36 records): cogging, position-dependent
+friction, a warm-up and a direction asymmetry named first on 16 of 16.
+One log, whose first move (a homing step) was the only fast one, was refused: "never reaches
+sliding in both directions" though every move slid; the sliding check now takes each
+direction's own top speeds when one direction has none of the other's.  Fresh seeds here."""
+import numpy as np
+
+from bench.analysis import analyze_record
+from bench.errors import NotIdentifiable
+from independent_joint import independent_record, point_to_point
+from tests.diagnosis.test_conditions import _within
+from tests.record_pool import map_records
+from virtual_drives.presets import PRESETS
+
+DURATION = 30.0
+
+
+def _travel(spec) -> float:
+    rec, _ = independent_record(spec, duration=4.0, seed=1)
+    return float(rec.q.max() - rec.q.min())
+
+
+def _log(joint, seed, condition, physics=None, **shape):
+    spec = PRESETS[joint]
+    Fc = spec.friction.Fc
+    ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], DURATION,
+                         np.random.default_rng([seed, 9]), **shape)
+    noise = dict(disturbance=0.01 * Fc) if condition == "felt" else dict(torque_noise=0.02 * Fc)
+    rec, _ = independent_record(spec, duration=DURATION, seed=seed, physics=physics, pd=(6.0, 0.0),
+                                reference=ref, jitter=0.3, drop=0.005, **noise)
+    return spec, rec
+
+
+def _clean(joint, seed, condition):
+    spec, rec = _log(joint, seed, condition)
+    doc = analyze_record(rec).report()
+    return (joint, seed, condition, [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            doc["unexplained"]["structured"], _within(doc, spec),
+            {k: round(doc["parameters"][k] / getattr(spec.friction, k) - 1, 3) for k in ("Fc", "Fs", "sigma2")})
+
+
+def test_clean_joints_on_point_to_point_logs_name_nothing():
+    items = [(joint, 5760 + i, cond) for i, (joint, cond) in
+             enumerate((j, c) for c in ("felt", "reading") for j in PRESETS)]
+    rows = map_records(_clean, items)
+    told = [r for r in rows if r[3] or r[4]]
+    assert len(told) <= 1, told
+    # Fc and alpha trade off on j1, j3, j4 (above: 3 of 47 off and not said so)
+    assert sum(not r[5] for r in rows) <= 2, [r for r in rows if not r[5]]
+
+
+def _library(joint, seed, effect):
+    spec = PRESETS[joint]
+    tr, Fc = _travel(spec), spec.friction.Fc
+    physics = {"cogging": dict(detent=0.06 * Fc, detent_pitch=tr / 7, detent_h2=0.4),
+               "position_dependent_friction": dict(ripple=0.1, ripple_pitch=tr / 3.5),
+               "thermal_drift": dict(warm=0.25, warm_tau=8.0),
+               "direction_asymmetry": dict(asym=0.11)}[effect]
+    _, rec = _log(joint, seed, "felt", physics)
+    doc = analyze_record(rec).report()
+    return (joint, seed, effect, doc["diagnosis"][0]["effect"], doc["diagnosis"][0]["significant"],
+            doc["unexplained"]["structured"])
+
+
+def test_library_effects_on_point_to_point_logs_are_named_first():
+    effects = ("cogging", "position_dependent_friction", "thermal_drift", "direction_asymmetry")
+    items = [(joint, 5772 + i, effect) for i, (effect, joint) in
+             enumerate((e, j) for e in effects for j in ("j2", "j4" if e != "thermal_drift" else "rotary"))]
+    rows = map_records(_library, items)
+    wrong = [r for r in rows if not (r[3] == r[2] and r[4] and not r[5])]
+    assert len(wrong) <= 1, wrong
+
+
+def test_a_log_whose_only_fast_move_goes_one_way_is_analysed():
+    """A homing move at the start, from 0 to the travel's end in 0.15 half periods, three times
+    the speed of any later move (1-2 half periods each) and one way only, sets the top speed;
+    no move the other way reaches 0.6 of it, yet every move slides."""
+    for joint, seed in (("j1", 5780), ("j2", 5781), ("j3", 5782), ("j4", 5783)):
+        spec, rec = _log(joint, seed, "reading", homing=0.15, moves=(1.0, 2.0))
+        v = np.diff(rec.q) / np.diff(rec.t)
+        assert 0.6 * np.percentile(np.abs(v), 99.5) > np.percentile(v[v > 0], 99.5)
+        try:
+            doc = analyze_record(rec).report()
+        except NotIdentifiable as e:
+            raise AssertionError(f"{joint} {seed}: refused: {e}") from None
+        assert not [d["effect"] for d in doc["diagnosis"] if d["significant"]], (joint, doc["diagnosis"][:2])
+        assert not doc["unexplained"]["structured"], (joint, doc["unexplained"]["evidence"])
