@@ -197,7 +197,7 @@ def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | N
                 raise refused from None
             ident.warnings.insert(0, REVERSED_WARNING)
         step = torque_step(rec, ident.data.coulomb)
-        ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step)
+        ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step, ident.data.held_poses)
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)

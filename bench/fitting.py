@@ -54,6 +54,8 @@ class FitData:
     # the Coulomb level read off the map's high-speed line (eq. 8): the scale of "worth naming",
     # robust where a distorted dynamic fit is not
     coulomb: float = float("nan")
+    # the held poses left out of ``mask`` [(t0, t1)] (``bench.standstill.held_poses``)
+    held_poses: list = field(default_factory=list)
     # predict()'s memory of its last filtered LuGre traces (keyed by the values they depend on)
     cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 

@@ -22,6 +22,7 @@ from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, fit, predict
 from bench.lugre import LuGreParams
 from bench.records import Record
 from bench.signals import Conditioned, condition, zero_crossings
+from bench.standstill import held_poses
 
 # A parameter is reported identifiable when its 2-sigma band is within +-30 % of its value.
 IDENTIFIABLE_REL_SE = 0.15
@@ -86,13 +87,20 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
                 moved = np.flatnonzero(np.abs(c.v[a:b]) >= c.sliding_speed)
                 start = max(start, int(moved[0]) if len(moved) else b - a)
             mask[a + start:max(b - edge, a)] = True
+    # the insides of held poses (a robot's dwells): the friction there creeps below the
+    # encoder's resolution (bench.standstill)
+    steps = np.abs(np.diff(np.asarray(rec.q, dtype=float)))
+    steps = steps[steps > 0]
+    held, held_spans = held_poses(c.t, c.q, c.tau, float(np.percentile(steps, 1)) if len(steps) else 0.0,
+                                  c.grid_segments)
+    mask &= ~held
     if not mask.any() and len(c.segments) > 1:
         longest = max(b - a for a, b in c.segments) * c.dt
         raise InputError(f"{name}: segments too short to analyse after splitting at {len(c.segments) - 1} gaps "
                          f"(the longest is {longest:.3g} s; each needs more than {2 * edge * c.dt_grid:.3g} s "
                          "of filter edges): record without long gaps")
     return FitData(c=c, friction=F, mask=mask, z0=0.0, revolute=rec.joint_type == "revolute",
-                   load_encoder=rec.load_encoder, inertia=M), M
+                   load_encoder=rec.load_encoder, inertia=M, held_poses=held_spans), M
 
 
 def _check_sliding(c: Conditioned, F: np.ndarray, name: str,

@@ -9,6 +9,9 @@ from bench.records import Record
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
                       "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
                       "motion after each scored from the joint's first sliding")
+HELD_WARNING = ("the joint held its pose between moves with a steady torque ({n} dwells, {s:.3g} s): "
+                "their insides were left out of the fit and the scoring (bench.standstill), where a "
+                "held friction creeps below the encoder's resolution")
 # Shown beyond ``perfect_model.COARSE_TORQUE`` (5 % of the Coulomb level): steps of 10 % of Fc
 # moved the identified Fc by up to 5 %, of 20 % by up to 13 % (reading noise 0.5-3 % of Fc, too
 # little to dither them; tuning seeds 1370-1375, 1764-1767); of 1.5-3.5 % by at most 0.7 %
@@ -28,9 +31,10 @@ COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} 
                    "record); it was unwrapped before the analysis")
 
 
-def reading_warnings(rec: Record, fc: float, torque_step: float) -> list[str]:
+def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
     """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque
-    reading's step when it is coarse (``perfect_model.torque_step``), else 0."""
+    reading's step when it is coarse (``perfect_model.torque_step``), else 0; ``held``: the
+    held poses left out [(t0, t1)]."""
     r = rec.reading
     out = []
     if torque_step > 0:
@@ -39,6 +43,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float) -> list[str]:
     still = r.get("resampling", {}).get("standstills_cut")
     if still:
         out.append(STANDSTILL_WARNING.format(n=len(still), s=r["resampling"]["standstill_time"]))
+    if held:
+        out.append(HELD_WARNING.format(n=len(held), s=sum(b - a for a, b in held)))
     if r.get("turns_unwrapped"):
         out.append(UNWRAPPED_WARNING.format(n=r["turns_unwrapped"]))
     if r.get("time_counter"):

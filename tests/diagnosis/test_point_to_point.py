@@ -12,7 +12,10 @@ were 5.2-7 % off without it.  Library effects (36 records): cogging, position-de
 friction, a warm-up and a direction asymmetry named first on 16 of 16.
 One log, whose first move (a homing step) was the only fast one, was refused: "never reaches
 sliding in both directions" though every move slid; the sliding check now takes each
-direction's own top speeds when one direction has none of the other's.  Fresh seeds here."""
+direction's own top speeds when one direction has none of the other's.  The dwells' insides
+are then left out of the fit and the scoring (``bench.standstill.held_poses``): on tuning seeds
+1800-1835 and 1900-1935 the nine library kinds were named first on 58 of 72 logs (52
+before), gravity on 8 of 8 (5).  Fresh seeds here."""
 import numpy as np
 
 from bench.analysis import analyze_record
@@ -62,7 +65,8 @@ def test_clean_joints_on_point_to_point_logs_name_nothing():
 def _library(joint, seed, effect):
     spec = PRESETS[joint]
     tr, Fc = _travel(spec), spec.friction.Fc
-    physics = {"cogging": dict(detent=0.06 * Fc, detent_pitch=tr / 7, detent_h2=0.4),
+    physics = {"gravity": dict(mgl=0.1 * Fc, q0=0.3 + seed % 5),
+               "cogging": dict(detent=0.06 * Fc, detent_pitch=tr / 7, detent_h2=0.4),
                "position_dependent_friction": dict(ripple=0.1, ripple_pitch=tr / 3.5),
                "thermal_drift": dict(warm=0.25, warm_tau=8.0),
                "direction_asymmetry": dict(asym=0.11)}[effect]
@@ -76,6 +80,8 @@ def test_library_effects_on_point_to_point_logs_are_named_first():
     effects = ("cogging", "position_dependent_friction", "thermal_drift", "direction_asymmetry")
     items = [(joint, 5772 + i, effect) for i, (effect, joint) in
              enumerate((e, j) for e in effects for j in ("j2", "j4" if e != "thermal_drift" else "rotary"))]
+    # a link's weight held at each pose: named 5 of 8 before the held poses were left out
+    items += [("j2", 5784, "gravity"), ("j3", 5785, "gravity"), ("j1", 5786, "gravity")]
     rows = map_records(_library, items)
     wrong = [r for r in rows if not (r[3] == r[2] and r[4] and not r[5])]
     assert len(wrong) <= 1, wrong
@@ -95,3 +101,29 @@ def test_a_log_whose_only_fast_move_goes_one_way_is_analysed():
             raise AssertionError(f"{joint} {seed}: refused: {e}") from None
         assert not [d["effect"] for d in doc["diagnosis"] if d["significant"]], (joint, doc["diagnosis"][:2])
         assert not doc["unexplained"]["structured"], (joint, doc["unexplained"]["evidence"])
+
+
+def test_held_poses_are_left_out_of_dwells_and_found_nowhere_else():
+    """The dwells' insides leave the fit and the scoring (``bench.standstill.held_poses``);
+    a sine test, a PD-tracked sine and two tones, whose joints stick at reversals, hold none."""
+    from bench.identify import prepare
+    from bench.resample import on_grid
+    for joint, seed in (("j1", 5787), ("j4", 5788), ("linear", 5789)):
+        spec, rec = _log(joint, seed, "felt")
+        data, _ = prepare(on_grid(rec))
+        # tuning seeds 1840-1851, six joints: 3-35 poses, 10-45 % of the record (a bar of three
+        # poses, set from them, failed fresh seed 5787 on j1: two, 19 % of its record)
+        held = sum(b - a for a, b in data.held_poses)
+        assert data.held_poses and held > 0.05 * DURATION, (joint, data.held_poses)
+        doc = analyze_record(rec).report()
+        assert any("held its pose" in w for w in doc["warnings"]), doc["warnings"]
+        spec = PRESETS[joint]
+        A, f = spec.excitation
+        t = np.arange(20000) * 1e-3
+        Fc, tr = spec.friction.Fc, _travel(spec)
+        for kw in (dict(disturbance=0.02 * Fc, jitter=0.4, drop=0.01),
+                   dict(pd=(4.0, 0.5 * tr), jitter=0.3, drop=0.005, disturbance=0.01 * Fc),
+                   dict(torque=A * (0.8 * np.sin(2 * np.pi * f * t) + 0.45 * np.sin(2 * np.pi * 2.7 * f * t + 1.0)))):
+            other, _ = independent_record(spec, seed=seed, **kw)
+            data, _ = prepare(on_grid(other))
+            assert not data.held_poses, (joint, list(kw), data.held_poses)
