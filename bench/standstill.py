@@ -65,13 +65,7 @@ def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
     w = max(3, int(round(0.5 * interval / h)))
     runs = []      # still runs [i, j) in raw indices, with their piece [a, b)
     for a, b in ranges:
-        qs = q[a:b]
-        if len(qs) < w:
-            continue
-        spread = maximum_filter1d(qs, w, mode="nearest") - minimum_filter1d(qs, w, mode="nearest")
-        still = np.concatenate(([False], spread <= band, [False]))
-        edges = np.flatnonzero(np.diff(still.astype(np.int8)))
-        runs += [(a + i, a + j, a, b) for i, j in zip(edges[::2], edges[1::2])]
+        runs += [(a + i, a + j, a, b) for i, j in still_runs(q[a:b], w, band)]
     out, spans = [], []
     for group in _across_gaps(runs, q, band):
         # the window's half-width on each side of the run is still too
@@ -89,6 +83,17 @@ def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
         if cut:
             spans.append((float(t0), float(t1)))
     return out, spans
+
+
+def still_runs(q: np.ndarray, w: int, band: float) -> list[tuple[int, int]]:
+    """Index ranges [i, j) where ``q`` stays within ``band`` over every window of ``w`` samples
+    around each index."""
+    if len(q) < w:
+        return []
+    spread = maximum_filter1d(q, w, mode="nearest") - minimum_filter1d(q, w, mode="nearest")
+    still = np.concatenate(([False], spread <= band, [False]))
+    edges = np.flatnonzero(np.diff(still.astype(np.int8)))
+    return list(zip(edges[::2], edges[1::2]))
 
 
 def _across_gaps(runs: list, q: np.ndarray, band: float) -> list:
@@ -157,13 +162,8 @@ def held_poses(t: np.ndarray, q: np.ndarray, tau: np.ndarray, count: float,
     steady = HOLD_TORQUE * float(np.percentile(np.abs(tau), 90))
     spans = []
     for a, b in ranges:
-        if b - a < w:
-            continue
-        qs, ts = q[a:b], t[a:b]
-        spread = maximum_filter1d(qs, w, mode="nearest") - minimum_filter1d(qs, w, mode="nearest")
-        still = np.concatenate(([False], spread <= band, [False]))
-        edges = np.flatnonzero(np.diff(still.astype(np.int8)))
-        for i, j in zip(edges[::2], edges[1::2]):
+        ts = t[a:b]
+        for i, j in still_runs(q[a:b], w, band):
             t0, t1 = ts[i] - 0.5 * w * h, ts[j - 1] + 0.5 * w * h
             if t1 - t0 < HOLD_MIN * interval or np.ptp(tau[a + i:a + j]) > steady:
                 continue
