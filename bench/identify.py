@@ -22,7 +22,7 @@ from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, fit, predict
 from bench.lugre import LuGreParams
 from bench.records import Record
 from bench.signals import Conditioned, condition, zero_crossings
-from bench.standstill import held_poses
+from bench.standstill import held_poses, smallest_step
 
 # A parameter is reported identifiable when its 2-sigma band is within +-30 % of its value.
 IDENTIFIABLE_REL_SE = 0.15
@@ -89,10 +89,7 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
             mask[a + start:max(b - edge, a)] = True
     # the insides of held poses (a robot's dwells): the friction there creeps below the
     # encoder's resolution (bench.standstill)
-    steps = np.abs(np.diff(np.asarray(rec.q, dtype=float)))
-    steps = steps[steps > 0]
-    held, held_spans = held_poses(c.t, c.q, c.tau, float(np.percentile(steps, 1)) if len(steps) else 0.0,
-                                  c.grid_segments)
+    held, held_spans = held_poses(c.t, c.q, c.tau, smallest_step(rec.q), c.grid_segments)
     mask &= ~held
     if not mask.any() and len(c.segments) > 1:
         longest = max(b - a for a, b in c.segments) * c.dt

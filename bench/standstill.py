@@ -58,10 +58,7 @@ def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
     if interval is None:
         return [], []
     h = float(np.median(np.diff(t)))
-    d = np.abs(np.diff(q))
-    d = d[d > 0]
-    count = float(np.percentile(d, 1)) if len(d) else 0.0
-    band = max(STILL_TRAVEL * float(np.ptp(q)), 3.0 * count)
+    band = max(STILL_TRAVEL * float(np.ptp(q)), 3.0 * smallest_step(q))
     w = max(3, int(round(0.5 * interval / h)))
     runs = []      # still runs [i, j) in raw indices, with their piece [a, b)
     for a, b in ranges:
@@ -83,6 +80,14 @@ def standstills(t: np.ndarray, q: np.ndarray, ranges: list[tuple[int, int]]):
         if cut:
             spans.append((float(t0), float(t1)))
     return out, spans
+
+
+def smallest_step(q: np.ndarray) -> float:
+    """The position's smallest step between samples (1st percentile of the nonzero ones): an
+    encoder's count on a raw record; 0 when it never moves."""
+    d = np.abs(np.diff(np.asarray(q, dtype=float)))
+    d = d[d > 0]
+    return float(np.percentile(d, 1)) if len(d) else 0.0
 
 
 def still_runs(q: np.ndarray, w: int, band: float) -> list[tuple[int, int]]:
@@ -151,7 +156,8 @@ HOLD_KEEP = 0.05
 def held_poses(t: np.ndarray, q: np.ndarray, tau: np.ndarray, count: float,
                ranges: list[tuple[int, int]]) -> tuple[np.ndarray, list]:
     """(the samples inside held poses, their spans [(t0, t1)]): ``t``, ``q``, ``tau`` low-passed
-    on a grid, ``ranges`` its evenly sampled segments, ``count`` the encoder's step."""
+    on a grid, ``ranges`` its evenly sampled segments, ``count`` the encoder's step
+    (``smallest_step`` of the record's own positions)."""
     out = np.zeros(len(t), dtype=bool)
     interval = reversal_interval(t, q)
     if interval is None:

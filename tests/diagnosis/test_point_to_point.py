@@ -23,15 +23,11 @@ from bench.analysis import analyze_record
 from bench.errors import NotIdentifiable
 from independent_joint import independent_record, point_to_point
 from tests.diagnosis.test_conditions import _within
+from tests.diagnosis.test_independent_records import _travel
 from tests.record_pool import map_records
 from virtual_drives.presets import PRESETS
 
 DURATION = 30.0
-
-
-def _travel(spec) -> float:
-    rec, _ = independent_record(spec, duration=4.0, seed=1)
-    return float(rec.q.max() - rec.q.min())
 
 
 def _log(joint, seed, condition, physics=None, **shape):
