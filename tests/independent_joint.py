@@ -102,8 +102,8 @@ def _rates(x, u, d, P, t):
 
 @njit(cache=True)
 def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0, pd, ref):
-    """Integrate; ``pd`` = (kp, kd, encoder resolution): with kp > 0 the torque of each
-    period is a PD controller's on the (quantised) motor encoder and its finite-difference
+    """Integrate; ``pd`` = (kp, kd, encoder resolution, ki): with kp > 0 the torque of each
+    period is a PID controller's on the (quantised) motor encoder and its finite-difference
     velocity, tracking ``ref`` (position, velocity per period), written back into ``u`` (what
     a log holds)."""
     np.random.seed(seed)
@@ -113,15 +113,17 @@ def _run(u, n_sub, h, P, dist_std, dist_tau, seed, x0, pd, ref):
     path[0, 0], path[0, 1] = x[0], x[3]
     a = math.exp(-h / dist_tau) if dist_tau > 0 else 0.0
     d = 0.0
-    kp, kd, res = pd[0], pd[1], pd[2]
+    kp, kd, res, ki = pd[0], pd[1], pd[2], pd[3]
     period = n_sub * h
     q_prev = 0.0
+    e_int = 0.0
     for i in range(n):
         if kp > 0:
             qe = math.floor(x[0] / res + 0.5) * res if res > 0 else x[0]
             ve = (qe - q_prev) / period if i > 0 else 0.0
             q_prev = qe
-            u[i] = kp * (ref[i, 0] - qe) + kd * (ref[i, 1] - ve)
+            e_int += (ref[i, 0] - qe) * period
+            u[i] = kp * (ref[i, 0] - qe) + kd * (ref[i, 1] - ve) + ki * e_int
         for j in range(n_sub):
             if dist_std > 0:
                 d = a * d + dist_std * math.sqrt(1.0 - a * a) * np.random.randn()
@@ -144,7 +146,7 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                        disturbance_tau: float = 0.01, torque_noise: float | None = None,
                        resolution: float | None = None, jitter: float = 0.0, drop: float = 0.0,
                        encoder: str = "motor", physics: dict | None = None,
-                       pd: tuple[float, float] | None = None,
+                       pd: tuple[float, ...] | None = None,
                        reference=None) -> tuple[Record, np.ndarray]:
     """A record of ``spec``'s joint under its sine test (or ``torque``, held per ``dt``):
     ``backlash`` (total width; the teeth meet through a ``contact_hz`` spring of damping ratio
@@ -157,8 +159,9 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     ``pd`` = (bandwidth Hz, reference amplitude): closed loop instead, the joint tracking
     amplitude sin(2 pi f t) at the sine test's frequency f under a PD controller of that
     bandwidth (kp = M w^2, kd = 1.4 M w, on the quantised motor encoder), the log holding the
-    controller's torque.  ``reference`` (positions per ``dt``; with ``pd``, whose amplitude
-    it replaces) is tracked instead of the sine: point-to-point moves with dwells, say.
+    controller's torque; a third entry, the integral's corner (Hz, ki = kp 2 pi corner), makes
+    it a PID, as most robot joints run.  ``reference`` (positions per ``dt``; with ``pd``, whose
+    amplitude it replaces) is tracked instead of the sine: point-to-point moves with dwells, say.
 
     ``physics`` adds, in this simulator's own conventions (not the effect library's): ``mgl``
     and ``q0`` (a link's weight, -mgl sin(q + q0)), ``lag`` (a first-order current loop, s),
@@ -201,11 +204,14 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0),
                   ph.get("static_eps", 0.0), ph.get("sigma1_vd", 0.0), ph.get("stribeck_delta", 1.0),
                   1.0 if ph.get("simscape") else 0.0])
-    gains = np.zeros(3)
+    gains = np.zeros(4)
     ref = np.zeros((n, 2))
     if pd is not None:
         wc = 2.0 * math.pi * pd[0]
-        gains[:] = (spec.inertia * wc * wc, 1.4 * spec.inertia * wc, spec.encoder_resolution)
+        kp = spec.inertia * wc * wc
+        corner = pd[2] if len(pd) > 2 else 0.0
+        gains[:] = (kp, 1.4 * spec.inertia * wc, spec.encoder_resolution,
+                    kp * 2.0 * math.pi * corner)
         if reference is None:
             w = 2.0 * math.pi * spec.excitation[1]
             ref[:, 0], ref[:, 1] = pd[1] * np.sin(w * t), pd[1] * w * np.cos(w * t)

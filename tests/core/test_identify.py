@@ -4,6 +4,7 @@ Seeds 5101/5102 were never used while tuning (tuning used 11, 12 and 1000-1999).
 import numpy as np
 import pytest
 
+from bench.errors import NotIdentifiable
 from bench.identify import identify
 from bench.plots import loop_area
 from bench.identify import prepare
@@ -82,3 +83,35 @@ def test_a_fast_joint_logged_slowly_is_fitted_in_the_right_basin(step, seed, fs_
     err = {key: doc["parameters"][key] / truth[key] - 1 for key in ("Fc", "Fs", "sigma2")}
     assert abs(err["Fc"]) < 0.05 and abs(err["sigma2"]) < 0.05 and abs(err["Fs"]) < fs_tolerance, err
     assert doc["final"]["effects"] == [] and not doc["unexplained"]["structured"]
+
+
+def test_a_violent_transient_among_the_top_speeds_does_not_refuse_a_sliding_joint():
+    """Min-jerk moves slide at Fc sgn v + sigma2 v; one step at the start (a reference that
+    jumps: M a ~ 15x the friction) is read with a 50 % inertia error, so tau - M a there is off
+    by many times the friction.  Without the steady reading it refuses the record
+    ("never reaches sliding"; so did a PID-tracked log, tuning seed 1656)."""
+    from types import SimpleNamespace
+
+    from bench.identify import _check_sliding
+    rng = np.random.default_rng(5790)
+    t = np.arange(0.0, 20.0, 0.005)
+    Fc, s2, M = 2.0, 1.0, 1.0
+    v = np.zeros_like(t)
+    for k, t0 in enumerate(np.arange(1.0, 19.0, 3.0)):   # a 0.5 s move every 3 s, either side
+        s = (t - t0) / 0.5
+        inside = (s > 0) & (s < 1)
+        v[inside] += (-1) ** k * 30 * s[inside] ** 2 * (1 - s[inside]) ** 2 * 0.3 / 0.5
+    step = (t > 0.02) & (t < 0.12)   # the opening step, faster than any move
+    v[step] -= 1.5 * np.sin(np.pi * (t[step] - 0.02) / 0.1)
+    a = np.gradient(v, t)
+    friction = Fc * np.sign(v) * (np.abs(v) > 1e-9) + s2 * v + 0.02 * Fc * rng.standard_normal(len(t))
+    tau = friction + M * a
+    F = friction + 0.5 * M * a * step   # the inertia error shows only where M a is large
+    c = SimpleNamespace(v=v, a=a, q=np.cumsum(v) * 0.005, tau=tau)
+    top = np.abs(v) > 0.6 * np.percentile(np.abs(v), 99.5)
+    assert np.sum(top & step) >= 5   # the step is among the top speeds
+    fc, sigma2, _, _ = _check_sliding(c, F, "record", revolute=False, M=M)
+    assert abs(fc / Fc - 1) < 0.1 and abs(sigma2 / s2 - 1) < 0.3, (fc, sigma2)
+    with pytest.raises(NotIdentifiable):   # a joint that never slides is still refused
+        stuck = SimpleNamespace(v=v, a=a, q=c.q, tau=0.02 * Fc * rng.standard_normal(len(t)))
+        _check_sliding(stuck, stuck.tau, "record", revolute=False, M=M)

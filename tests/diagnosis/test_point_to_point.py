@@ -30,14 +30,16 @@ from virtual_drives.presets import PRESETS
 DURATION = 30.0
 
 
-def _log(joint, seed, condition, physics=None, **shape):
+def _log(joint, seed, condition, physics=None, integral=0.0, **shape):
+    """``integral``: the loop's integral corner (Hz; 0: a PD)."""
     spec = PRESETS[joint]
     Fc = spec.friction.Fc
     ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], DURATION,
                          np.random.default_rng([seed, 9]), **shape)
     noise = dict(disturbance=0.01 * Fc) if condition == "felt" else dict(torque_noise=0.02 * Fc)
-    rec, _ = independent_record(spec, duration=DURATION, seed=seed, physics=physics, pd=(6.0, 0.0),
-                                reference=ref, jitter=0.3, drop=0.005, **noise)
+    rec, _ = independent_record(spec, duration=DURATION, seed=seed, physics=physics,
+                                pd=(6.0, 0.0, integral), reference=ref, jitter=0.3, drop=0.005,
+                                **noise)
     return spec, rec
 
 
@@ -59,7 +61,7 @@ def test_clean_joints_on_point_to_point_logs_name_nothing():
     assert sum(not r[5] for r in rows) <= 2, [r for r in rows if not r[5]]
 
 
-def _library(joint, seed, effect):
+def _library(joint, seed, effect, integral=0.0):
     spec = PRESETS[joint]
     tr, Fc = _travel(spec), spec.friction.Fc
     physics = {"gravity": dict(mgl=0.1 * Fc, q0=0.3 + seed % 5),
@@ -67,7 +69,7 @@ def _library(joint, seed, effect):
                "position_dependent_friction": dict(ripple=0.1, ripple_pitch=tr / 3.5),
                "thermal_drift": dict(warm=0.25, warm_tau=8.0),
                "direction_asymmetry": dict(asym=0.11)}[effect]
-    _, rec = _log(joint, seed, "felt", physics)
+    _, rec = _log(joint, seed, "felt", physics, integral)
     doc = analyze_record(rec).report()
     return (joint, seed, effect, doc["diagnosis"][0]["effect"], doc["diagnosis"][0]["significant"],
             doc["unexplained"]["structured"])
@@ -79,6 +81,31 @@ def test_library_effects_on_point_to_point_logs_are_named_first():
              enumerate((e, j) for e in effects for j in ("j2", "j4" if e != "thermal_drift" else "rotary"))]
     # a link's weight held at each pose: named 5 of 8 before the held poses were left out
     items += [("j2", 5784, "gravity"), ("j3", 5785, "gravity"), ("j1", 5786, "gravity")]
+    rows = map_records(_library, items)
+    wrong = [r for r in rows if not (r[3] == r[2] and r[4] and not r[5])]
+    assert len(wrong) <= 1, wrong
+
+
+def _clean_pid(joint, seed, condition):
+    spec, rec = _log(joint, seed, condition, integral=1.5)
+    doc = analyze_record(rec).report()
+    return (joint, seed, condition, [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            doc["unexplained"]["structured"])
+
+
+def test_logs_under_a_pid_loop_tell_what_the_pd_logs_tell():
+    """Most robot joints run a PID: its integral winds the torque up while a pose is held, the
+    joint breaks away and overshoots.  Tuning seeds 1600-1793 (integral corner at 1, 1.5 and
+    3 Hz under the 6 Hz bandwidth, felt / reading / coloured noise, six joints): clean logs
+    named nothing on 18 of 18; cogging, position-dependent friction, a warm-up, a direction
+    asymmetry and gravity named first on 82 of 90 (29 of 30 at 1.5 Hz, as here)."""
+    rows = map_records(_clean_pid, [(joint, 5791 + i, ("felt", "reading")[i % 2])
+                                    for i, joint in enumerate(PRESETS)])
+    told = [r for r in rows if r[3] or r[4]]
+    assert len(told) <= 1, told
+    effects = ("cogging", "position_dependent_friction", "thermal_drift", "direction_asymmetry", "gravity")
+    items = [(joint, 5797 + i, effect, 1.5) for i, (effect, joint) in
+             enumerate(zip(effects + effects[:3], ("j2", "j4", "rotary", "j1", "j3", "j4", "j2", "linear")))]
     rows = map_records(_library, items)
     wrong = [r for r in rows if not (r[3] == r[2] and r[4] and not r[5])]
     assert len(wrong) <= 1, wrong
