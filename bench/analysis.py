@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import plots
+from bench import inertia_estimate, plots
 from bench.checkpoint import checkpoint
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose
 from bench.pruning import drop_absorbers
@@ -168,21 +168,33 @@ class Analysis:
         return path
 
 
-def analyze_record(rec: Record, inertia: float | None = None, add: list[str] | None = None,
+def analyze_record(rec: Record, inertia: float | str | None = None, add: list[str] | None = None,
                    diagnose_effects: bool = True, cutoff: float | None = None,
                    name: str = "record") -> Analysis:
     """Identify; then add the effects in ``add`` (forced, one step each) or, without
-    ``add`` and unless ``diagnose_effects`` is False, the significant ones the diagnosis finds."""
+    ``add`` and unless ``diagnose_effects`` is False, the significant ones the diagnosis finds.
+    ``inertia`` "estimate" (or the record's metadata saying so): read off the record."""
     if add:  # validate names before spending time on a fit
         from bench.effects import get
         for n in add:
             get(n)
+    if inertia_estimate.wanted(rec, inertia):
+        return inertia_estimate.analyze(rec, add, diagnose_effects, cutoff, name)
+    return _analyze(_ready(rec, inertia, name, cutoff), inertia, add, diagnose_effects, cutoff, name)
+
+
+def _ready(rec: Record, inertia, name: str, cutoff: float | None) -> Record:
+    """The record checked, its glitches mended and on its grid, as a file would be read."""
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
     if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
         rec = _glitches_mended(rec)
     rec = on_grid(rec, name)                   # a logger's timestamps, as a file would be read
     if cutoff is not None:
         in_range(cutoff, "cutoff", 0.0, 0.5 / max(rec.dt, 1e-12), lo_open=True)
+    return rec
+
+
+def _analyze(rec: Record, inertia, add, diagnose_effects: bool, cutoff, name: str) -> Analysis:
     with fit_errors():
         try:
             ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)

@@ -10,6 +10,7 @@ User errors print one line on stderr and exit with status 2.
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import List, Optional
@@ -158,11 +159,24 @@ def _gravity_pair(text: str, spec) -> tuple[float, float]:
     return a, b
 
 
+def _inertia_option(text: str | None) -> float | str | None:
+    """--inertia: a number >= 0 or 'estimate'."""
+    if text is None or text.strip().lower() == "estimate":
+        return None if text is None else "estimate"
+    try:
+        value = float(text)
+    except ValueError:
+        raise BenchError(f"--inertia must be a number >= 0 (0: the torque column is the friction) or 'estimate', got {text!r}") from None
+    if not (value >= 0 and math.isfinite(value)):
+        raise BenchError(f"--inertia must be >= 0 (0: the torque column is the friction), got {value:g}")
+    return value
+
+
 @app.command()
 def analyze(
     file: Path = typer.Argument(..., help="record: CSV (any delimiter; # metadata lines), Parquet or MATLAB .mat"),
     columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
-    inertia: Optional[float] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction"),
+    inertia: Optional[str] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction; estimate: read it off the record"),
     joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
     time_unit: Optional[str] = typer.Option(None, help="s, ms, us or ns (numeric time; default s), or K*UNIT (25*ns: 40 MHz ticks)"),
     window: Optional[str] = typer.Option(None, help="START:END seconds from the first sample: the part of a long log to analyse"),
@@ -181,8 +195,7 @@ def analyze(
     from bench.analysis import analyze_record
     from bench.readers import read_record
     try:
-        if inertia is not None and not inertia >= 0:
-            raise BenchError(f"--inertia must be >= 0 (0: the torque column is the friction), got {inertia:g}")
+        inertia = _inertia_option(inertia)
         rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
                           torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold,
                           time_unit=time_unit, window=window)

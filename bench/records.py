@@ -59,7 +59,8 @@ class Record:
     @property
     def inertia(self) -> float | None:
         m = self.meta.get("inertia")
-        return None if m is None else float(m)
+        # 'estimate': none declared (bench.inertia_estimate reads it off the record)
+        return None if m is None or isinstance(m, str) and m.strip().lower() == "estimate" else float(m)
 
     @property
     def load_encoder(self) -> bool:
@@ -179,11 +180,11 @@ def validate(rec: Record, name: str = "record") -> None:
     if enc is not None and str(enc).strip().lower() not in ENCODER_SIDES:
         raise InputError(f"{name}: encoder must be motor or load (the side of a geared joint's gear it reads), not {enc!r}")
     m = rec.meta.get("inertia")
-    if m is not None:
+    if m is not None and not (isinstance(m, str) and m.strip().lower() == "estimate"):
         try:
             mv = float(m)
         except (TypeError, ValueError):
-            raise InputError(f"{name}: metadata inertia is not a number: {m!r}") from None
+            raise InputError(f"{name}: metadata inertia is not a number (nor 'estimate'): {m!r}") from None
         # 0 declares a friction-torque record: tau already is the friction (torque-sensing arms)
         if not (mv >= 0 and math.isfinite(mv)):
             raise InputError(f"{name}: metadata inertia must be positive (or 0 for a friction-torque record), got {m}")

@@ -29,6 +29,13 @@ class InertiaError(Effect):
     name = "inertia_error"
     summary = "declared inertia differs from the true one"
 
+    def applicable(self, ctx: Context) -> bool:
+        # an inertia read off the record (--inertia estimate) has no declared value to be wrong
+        return not ctx.meta.get("inertia_estimated")
+
+    def inapplicable(self, ctx: Context) -> str:
+        return "a record whose inertia was estimated from itself (declare it to test it)"
+
     def variants(self, ctx: Context) -> list[dict]:
         return [{"inertia_error": 0.0}]
 
