@@ -44,6 +44,25 @@ def test_the_inertia_is_read_off_our_records_within_its_standard_error():
         assert any("no inertia was declared" in w for w in doc["warnings"]), doc["warnings"]
         named = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
         assert not named and not doc["unexplained"]["structured"], (joint, condition, named)
+        # under a torque sine q ~ -qdd: inertia and gravity are one measurement (the linear
+        # stage has no gravity term; the rotary motor, 4.1x on tuning, sits near the bound)
+        if joint in ("j1", "j2", "j3", "j4"):
+            assert "gravity_confounded" in info, (joint, info)
+            assert any("one measurement" in w for w in doc["warnings"])
+        elif joint == "linear":
+            assert "gravity_confounded" not in info, info
+
+
+def test_gravity_left_in_a_sine_tests_torque_is_said_to_be_inside_the_estimate():
+    """0.1 Fc of gravity on j1 under its torque sine: M comes out ~17 % low (tuning seeds
+    1630-1631) with nothing named, and only the warning can say why."""
+    spec = PRESETS["j1"]
+    rec = _undeclared(make_record(spec, recording_for(spec, "white process noise", 5824), 5824,
+                                  effects=["gravity:amplitude=150"]))
+    doc = analyze_record(rec, inertia="estimate").report()
+    info = doc["fit"]["inertia_estimate"]
+    assert info["inertia"] < 0.9 * spec.inertia and "gravity_confounded" in info, info
+    assert any("gravity left in the torque are one measurement" in w for w in doc["warnings"])
 
 
 def _p2p(joint, seed, cogging):
@@ -62,13 +81,17 @@ def test_the_inertia_is_read_off_another_simulators_robot_logs_and_the_diagnosis
     1620-1627 (j1-j4, the linear stage): the regression 0.88-1.21 of the true inertia, refitted
     beside LuGre and the named cogging 0.974-1.079 (within 1.2 of its standard errors); cogging
     named first on 8 of 8 (a Stribeck shape beside it on j2, as with the inertia declared)."""
-    rows = map_records(_p2p, [("j1", 5817, True), ("j3", 5818, True), ("j4", 5819, True),
-                              ("linear", 5820, True), ("j2", 5822, True), ("j1", 5823, False)])
+    # (seeds 5817-5823 showed the regression's own widening flag 2 of 6 such logs, 5830-5835 a
+    # refusal of a wide first value; both were changed, and these seeds had seen neither)
+    rows = map_records(_p2p, [("j1", 5840, True), ("j3", 5841, True), ("j4", 5842, True),
+                              ("linear", 5843, True), ("j2", 5844, True), ("j1", 5845, False)])
     for joint, info, true, named in rows:
         # within its reported uncertainty (cogging left out of a fit widens it to ~10 %)
         assert abs(info["inertia"] / true - 1) < max(0.03, 3 * info["standard_error"] / true), (joint, info, true)
         assert "inertia_error" not in named
     assert sum(named[:1] != ["cogging"] for *_, named in rows[:5]) <= 1, rows
+    # dwells at many poses separate inertia from gravity
+    assert not [info for _, info, _, _ in rows if "gravity_confounded" in info], rows
     assert rows[5][3] == [] and rows[5][1]["beside"] == [], rows[5]
 
 
