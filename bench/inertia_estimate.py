@@ -5,10 +5,11 @@ Eq. 5 needs M to turn the torque into friction; at sliding speeds the friction d
 velocity alone, so the torque's dependence on the acceleration there is M (the regression
 ``bench.effects.inertia_error`` makes for a declared M, made from nothing).  LuGre's bristles
 lag the Stribeck map while the joint accelerates, which that regression reads as inertia
-(the linear stage 3 % low on our generator), so it is refined the way an inertia error is
-fitted: LuGre identified with it, and the inertia's correction fitted beside LuGre.  The
-diagnosis then cannot name an inertia error (no inertia was declared); the report gives the
-estimate, its standard error and how it was read.
+(the linear stage 3 % low on our generator), and effects left in the residual widen it, so
+the analysis that runs on it is followed by the way an inertia error is fitted: M refitted
+beside LuGre and the effects named, and the analysis repeated.  The diagnosis cannot name an
+inertia error then (none was declared); the report gives the estimate, its standard error
+and how it was read.
 """
 from __future__ import annotations
 
