@@ -134,6 +134,17 @@ def test_analyze_csv_body_and_multipart(operator):
     assert r.status_code == 200, r.text
 
 
+def test_analyze_an_upload_whose_inertia_is_to_be_estimated(operator):
+    """A CSV saying ``# inertia: estimate`` (README, bench.inertia_estimate)."""
+    import re
+    text = re.sub(r"# inertia: [^\n]*", "# inertia: estimate", _record_csv())
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=180)
+    assert r.status_code == 200, r.text
+    info = r.json()["fit"]["inertia_estimate"]
+    assert abs(info["inertia"] / preset("rotary").inertia - 1) < 0.05, info
+
+
 def test_analyze_names_a_hidden_effect_and_answers_strict_json(operator):
     """An upload whose diagnosis names an effect: the report carries its steps (each with its
     candidates' scores), and the answer is strict JSON (a NaN score once answered 500 here)."""
