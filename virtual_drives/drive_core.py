@@ -131,12 +131,17 @@ class DriveCore:
     def feed(self, now: float | None = None) -> None:
         self.last_alive = time.monotonic() if now is None else now
 
-    def check_watchdog(self, now: float) -> None:
-        if self.watchdog_s > 0 and self.last_alive is not None \
-                and now - self.last_alive > self.watchdog_s:
-            self.watchdog_gap = now - self.last_alive
-            self.last_alive = None
-            self.fault(FAULT_WATCHDOG, f"host silent for more than {self.watchdog_s:g} s")
+    def check_watchdog(self) -> None:
+        # under the lock, timed once it is held: a command being served (its step compiling a
+        # kernel on a loaded host) is the drive's own stall, not the host's silence (a fresh
+        # clone's suite, 2026-11-29: a serial drive tripped on its first torque command)
+        with self.lock:
+            now = time.monotonic()
+            if self.watchdog_s > 0 and self.last_alive is not None \
+                    and now - self.last_alive > self.watchdog_s:
+                self.watchdog_gap = now - self.last_alive
+                self.last_alive = None
+                self.fault(FAULT_WATCHDOG, f"host silent for more than {self.watchdog_s:g} s")
 
     # --- clock ------------------------------------------------------------------------------
     def step(self, periods: int = 1) -> None:
@@ -264,7 +269,7 @@ class Ticker:
         while not self._stop.wait(self.period):
             now = time.monotonic()
             for core in list(self.cores):
-                core.check_watchdog(now)
+                core.check_watchdog()
                 if core.clock == "realtime" and core.wall_ref is not None \
                         and now - core.wall_ref > 3 * core.dt:
                     core.catch_up(now, command=False)

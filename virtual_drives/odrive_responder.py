@@ -174,6 +174,7 @@ class OdriveResponder:
                 core.catch_up(time.monotonic(), command=True)
                 if core.state == DriveState.ENABLED:
                     core.set_command(torque)
+            core.feed()   # the host spoke when the command came; serving it is not its silence
 
     def handle(self, line: str) -> str | None:
         """One command line (checksum and comment removed) -> reply text or None."""
