@@ -161,7 +161,8 @@ def _gravity_pair(text: str, spec) -> tuple[float, float]:
 
 def _inertia_option(text: str | None) -> float | str | None:
     """--inertia: a number >= 0 or 'estimate'."""
-    if text is None or text.strip().lower() == "estimate":
+    from bench.records import asks_estimate
+    if text is None or asks_estimate(text):
         return None if text is None else "estimate"
     try:
         value = float(text)

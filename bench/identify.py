@@ -145,16 +145,17 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = Tr
         coef, r2, agree, other = line(N, hi)
         if coef[0] > 0 and r2 >= 0.8 and agree >= 0.9:
             break
-    level = np.median(np.abs(F[hi]))
-    steady = hi & (np.abs(M * c.a) <= 2.0 * level) & (np.abs(c.tau) <= 3.0 * level)
-    if ((r2 < 0.8 or agree < 0.9) and M > 0 and np.sum(steady) >= 0.5 * np.sum(hi)
-            and min(np.sum(steady & (c.v > 0)), np.sum(steady & (c.v < 0))) >= 3):
+    if (r2 < 0.8 or agree < 0.9) and M > 0:
         # the same reading only where the joint slides steadily: a violent transient among the
         # top speeds (a step of the reference at a log's start, a PID's overshoot) reads
         # friction as tau - M a with tau and M a many times the friction, so a small inertia
         # error or lag there swamps the map (PID-tracked logs, tuning seeds 1612, 1656: refused)
-        hi = steady
-        coef, r2, agree, other = line(options[-1], hi)
+        level = np.median(np.abs(F[hi]))
+        steady = hi & (np.abs(M * c.a) <= 2.0 * level) & (np.abs(c.tau) <= 3.0 * level)
+        if (np.sum(steady) >= 0.5 * np.sum(hi)
+                and min(np.sum(steady & (c.v > 0)), np.sum(steady & (c.v < 0))) >= 3):
+            hi = steady
+            coef, r2, agree, other = line(options[-1], hi)
     if coef[0] <= 0 and r2 >= 0.8 and agree >= 0.9:
         # it slides (friction follows the motion's sign) but the map at top speed is steeper
         # than Coulomb plus viscous friction allows, its intercept <= 0: physics outside the

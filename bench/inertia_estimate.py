@@ -19,9 +19,8 @@ from dataclasses import replace
 import numpy as np
 
 from bench.errors import InputError
-from bench.records import Record
+from bench.records import Record, asks_estimate
 
-ESTIMATE = "estimate"
 # the standard error (of M) above which the estimate is said to be poor (a motion with little
 # acceleration at its sliding speeds)
 POOR = 0.1
@@ -37,16 +36,16 @@ CONFOUNDED, FOLLOWS = 3.5, 1.3
 
 def wanted(rec: Record, inertia) -> bool:
     """Is the inertia to be estimated (``--inertia estimate`` or ``# inertia: estimate``)?"""
-    value = inertia if inertia is not None else rec.meta.get("inertia")
-    return isinstance(value, str) and value.strip().lower() == ESTIMATE
+    return asks_estimate(inertia if inertia is not None else rec.meta.get("inertia"))
 
 
 def regression(rec: Record, name: str = "record",
                cutoff: float | None = None) -> tuple[float, float, tuple[float, float]]:
     """M and its standard error from tau = M qdd + Fc sgn v + sigma2 v + c at the record's
     sliding speeds, and (how much a sin q + b cos q beside it would widen that error, how
-    closely the acceleration follows sin q and cos q over the whole record; 1: not at all).  Gravity is not fitted here: the analysis names it on the estimate and M is then
-    refitted beside it.  But under a torque sine q ~ -qdd and the two are one column (the
+    closely the acceleration follows sin q and cos q over the whole record; 1: not at all).
+    Gravity is not fitted here: the analysis names it on the estimate and M is then refitted
+    beside it.  But under a torque sine q ~ -qdd and the two are one column (the
     widening 35x on j1 on our generator, where gravity took the whole inertia: 10 ± 88 for
     250), and gravity left in the torque then went into M unseen (0.1 Fc on j1: M 17 % low,
     nothing named)."""

@@ -60,7 +60,7 @@ class Record:
     def inertia(self) -> float | None:
         m = self.meta.get("inertia")
         # 'estimate': none declared (bench.inertia_estimate reads it off the record)
-        return None if m is None or isinstance(m, str) and m.strip().lower() == "estimate" else float(m)
+        return None if m is None or asks_estimate(m) else float(m)
 
     @property
     def load_encoder(self) -> bool:
@@ -83,6 +83,11 @@ class Record:
         if path is not None:
             Path(path).write_text(text)
         return text
+
+
+def asks_estimate(inertia) -> bool:
+    """Is this inertia setting the word asking for it to be read off the record (``estimate``)?"""
+    return isinstance(inertia, str) and inertia.strip().lower() == "estimate"
 
 
 def _parse_meta_value(v: str):
@@ -180,7 +185,7 @@ def validate(rec: Record, name: str = "record") -> None:
     if enc is not None and str(enc).strip().lower() not in ENCODER_SIDES:
         raise InputError(f"{name}: encoder must be motor or load (the side of a geared joint's gear it reads), not {enc!r}")
     m = rec.meta.get("inertia")
-    if m is not None and not (isinstance(m, str) and m.strip().lower() == "estimate"):
+    if m is not None and not asks_estimate(m):
         try:
             mv = float(m)
         except (TypeError, ValueError):
