@@ -110,8 +110,9 @@ _BINARIES = {"application/vnd.apache.parquet": ".parquet", "application/x-parque
 @router.post("/analyze", response_model=dict[str, Any], tags=["analysis"], openapi_extra=_UPLOAD_DOC,
              responses={**E.AUTH, 413: E._doc("record too large"), 415: E._doc("not a record body")},
              summary="Identify and diagnose an uploaded record (CSV, Parquet or MATLAB .mat); the report JSON")
-async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0, le=1e9, allow_inf_nan=False,
-                                                  description="M_jj [SI]; 0: the torque column is the friction"),
+async def analyze(request: Request, inertia: Optional[str] = Query(None, max_length=40,
+                                                  description="M_jj [SI]; 0: the torque column is the friction; "
+                                                              "estimate: read it off the record"),
                   columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   time_unit: Optional[str] = Query(None, pattern="^(s|ms|us|ns)$", description="numeric time's unit (default s)"),
@@ -124,6 +125,8 @@ async def analyze(request: Request, inertia: Optional[float] = Query(None, ge=0,
                   svc: Service = Depends(service), _=Depends(operator)):
     name, raw = await _upload(request)
     from bench.readers import parse_columns, parse_window
+    from bench.records import inertia_setting
+    inertia = inertia_setting(inertia)
     parse_columns(columns)   # a bad mapping or window is told before the upload is queued
     parse_window(window)
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,

@@ -10,7 +10,6 @@ User errors print one line on stderr and exit with status 2.
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import List, Optional
@@ -161,16 +160,11 @@ def _gravity_pair(text: str, spec) -> tuple[float, float]:
 
 def _inertia_option(text: str | None) -> float | str | None:
     """--inertia: a number >= 0 or 'estimate'."""
-    from bench.records import asks_estimate
-    if text is None or asks_estimate(text):
-        return None if text is None else "estimate"
+    from bench.records import inertia_setting
     try:
-        value = float(text)
-    except ValueError:
-        raise BenchError(f"--inertia must be a number >= 0 (0: the torque column is the friction) or 'estimate', got {text!r}") from None
-    if not (value >= 0 and math.isfinite(value)):
-        raise BenchError(f"--inertia must be >= 0 (0: the torque column is the friction), got {value:g}")
-    return value
+        return inertia_setting(text)
+    except BenchError as exc:
+        raise BenchError(f"--{exc}") from None
 
 
 @app.command()

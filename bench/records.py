@@ -90,6 +90,20 @@ def asks_estimate(inertia) -> bool:
     return isinstance(inertia, str) and inertia.strip().lower() == "estimate"
 
 
+def inertia_setting(text: str | None) -> float | str | None:
+    """A user's inertia option (CLI ``--inertia``, REST ``?inertia=``): a number >= 0 (0: the torque
+    column is the friction), 'estimate', or None (the record's metadata)."""
+    if text is None or asks_estimate(text):
+        return None if text is None else "estimate"
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"inertia must be a number >= 0 (0: the torque column is the friction) or 'estimate', got {text!r}") from None
+    if not (value >= 0 and math.isfinite(value)):
+        raise InputError(f"inertia must be >= 0 (0: the torque column is the friction), got {value:g}")
+    return value
+
+
 def _parse_meta_value(v: str):
     try:
         x = float(v)

@@ -135,14 +135,18 @@ def test_analyze_csv_body_and_multipart(operator):
 
 
 def test_analyze_an_upload_whose_inertia_is_to_be_estimated(operator):
-    """A CSV saying ``# inertia: estimate`` (README, bench.inertia_estimate)."""
+    """A CSV saying ``# inertia: estimate``, and one whose declared inertia the query's
+    ``inertia=estimate`` overrides (README, bench.inertia_estimate)."""
     import re
-    text = re.sub(r"# inertia: [^\n]*", "# inertia: estimate", _record_csv())
-    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
-                      params={"diagnose": "false"}, timeout=180)
-    assert r.status_code == 200, r.text
-    info = r.json()["fit"]["inertia_estimate"]
-    assert abs(info["inertia"] / preset("rotary").inertia - 1) < 0.05, info
+    declared = _record_csv()
+    asked = re.sub(r"# inertia: [^\n]*", "# inertia: estimate", declared)
+    assert asked != declared
+    for text, params in ((asked, {}), (declared, {"inertia": "estimate"})):
+        r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
+                          params={"diagnose": "false", **params}, timeout=180)
+        assert r.status_code == 200, r.text
+        info = r.json()["fit"]["inertia_estimate"]
+        assert abs(info["inertia"] / preset("rotary").inertia - 1) < 0.05, info
 
 
 def test_analyze_names_a_hidden_effect_and_answers_strict_json(operator):
@@ -232,7 +236,8 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
     assert r.json()["parameters"] == pytest.approx(doc["parameters"], rel=1e-6)
     for bad, expect in (({"columns": "t=time,tau=nope,q=angle_deg"}, "no column 'nope'"),
                         ({"columns": "t=time,tau=motor_torque_mNm"}, "missing: q"),
-                        ({"inertia": -1}, "inertia"), ({"time_unit": "min"}, "time_unit"),
+                        ({"inertia": -1}, "inertia"), ({"inertia": "heavy"}, "or 'estimate', got 'heavy'"),
+                        ({"time_unit": "min"}, "time_unit"),
                         ({"window": "9:1"}, "window '9:1' is not START:END")):
         r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, **bad),
                           headers={"content-type": "application/octet-stream"}, timeout=60)
