@@ -389,7 +389,8 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
     identifiable, warnings = judged(res, est["v_max"])
     fitq = {"rms_error": res.rms, "nrmse": res.nrmse, "fit_percent": 100.0 * (1.0 - res.nrmse),
             "samples": data.n, "effective_sample_fraction": res.n_eff_fraction,
-            "cutoff_hz": data.c.cutoff, "excitation_hz": data.c.frequency, "torque_hold": hold}
+            "cutoff_hz": data.c.cutoff, "velocity_band_hz": data.c.velocity_band,
+            "excitation_hz": data.c.frequency, "torque_hold": hold}
     return Identification(params=p, uncertainty=res.stderr, identifiable=identifiable, fit=fitq,
                           initial={k: (v if k == "skipped" else _finite_or_none(v)) for k, v in est.items()},
                           inertia=M,

@@ -7,6 +7,7 @@ before it is compared, so the filter smooths noise without biasing the fit.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -52,6 +53,7 @@ class Conditioned:
     tau_mid: np.ndarray = None    # torque over each interval, as the joint felt it (held or mean)
     # segments that start at rest beside a long standstill (``rest_starts``)
     rest_starts: frozenset = frozenset()
+    velocity_band: float = float("nan")   # Hz, the model velocity's low-pass (``velocity_band``)
 
     def __post_init__(self):
         if self.segments is None:
@@ -206,6 +208,45 @@ def motion_reversals(q: np.ndarray, dt: float, steps: np.ndarray | None = None) 
     return reversals(v, 0.1 * vmax), w
 
 
+# The velocity that drives the model keeps more bandwidth than the comparison filter: near
+# stick the joint rings (the presliding spring against the inertia and a loop's gains) and the
+# bristle state, integrating |v|, needs that ring; the position's own noise (encoder counts,
+# positions interpolated across a logger's jitter) sets the ceiling, since a noisy velocity
+# dithers the model's bristles loose.  Tuning seeds 1950-1970 (independent simulator, robot
+# point-to-point logs under a 6 Hz PD, a felt disturbance of 1 % of Fc): at 4x the cutoff,
+# the true parameters left 2 % of Fc at creep speeds (30.8 against 16.3 N m rms on j1 at
+# 12x, seed 1906) and the fit bent the Stribeck dip to absorb it: Fc unidentifiable or 5-99 %
+# off on 4 of 6 geared joints; at 12x all six within 1.4 %, the reading-noise logs as before.
+# At 40x (the position's noise at creep speeds) they broke again (Fs 0.7-4000x).  The
+# position noise's velocity rms within the band, over the top speed: coarse encoders (tuning
+# seeds 1520-1537, 2^12-2^14 counts over the travel) were as at 4x up to 1.5e-2 and broke at
+# 1.7e-2 (j3: Fs 292x); the logs above were fixed at 2.2-2.7e-3.  The band stops where it
+# reaches V_NOISE, between 4x and 12x the cutoff.
+V_BAND = (4.0, 12.0)
+V_NOISE = 5e-3
+
+
+def velocity_band(q: np.ndarray, bounds, dt: float, fc: float) -> float:
+    """The model velocity's low-pass corner [Hz] (``V_BAND``, ``V_NOISE``): white position noise
+    of rms s (fourth differences) gives a velocity rms of 2 pi s sqrt(2 B^3 / (3 fs)) below B."""
+    fs = 1.0 / dt
+    lo, hi = V_BAND[0] * fc, min(V_BAND[1] * fc, 0.4 * fs)
+    if hi <= lo:
+        return min(lo, 0.4 * fs)
+    d4 = [np.diff(q[a:b], 4) for a, b in bounds if b - a > 8]
+    w = max(1, int(round(0.02 / dt)))      # motion_reversals' smoothing: the top speed, not noise
+    tops = [np.abs(np.diff(np.convolve(q[a:b], np.ones(w) / w, mode="valid"))) / dt
+            for a, b in bounds if b - a > w + 1]
+    if not d4 or not tops:
+        return lo
+    s_q = float(np.std(np.concatenate(d4))) / math.sqrt(70.0)
+    v_top = float(np.percentile(np.concatenate(tops), 99.5))
+    if s_q <= 0.0:
+        return hi
+    band = (V_NOISE * v_top / (2.0 * math.pi * s_q)) ** (2.0 / 3.0) * (1.5 * fs) ** (1.0 / 3.0)
+    return float(np.clip(band, lo, hi))
+
+
 def choose_cutoff(fs: float, f_exc: float) -> float:
     """Low-pass cutoff: high enough to keep the presliding transients of a few tens of
     excitation harmonics, low enough to keep double differentiation noise in check."""
@@ -236,10 +277,9 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     # grid rate: at least 10 samples per cutoff period
     decim = max(1, int(fs / (10.0 * fc)))
     sos = signal.butter(4, fc, fs=fs / decim, output="sos")
-    # the velocity that drives the model keeps more bandwidth than the comparison filter:
-    # the bristle state integrates it, so quantisation noise averages out
-    sos_v = signal.butter(2, min(4.0 * fc, 0.4 * fs), fs=fs, output="sos")
     bounds = rec.segment_bounds()
+    band = velocity_band(q, bounds, dt, fc)
+    sos_v = signal.butter(2, band, fs=fs, output="sos")
     use_qd, source = velocity_source(rec, dt, name, sos_v)
     # 'torque_hold: sample' marks torques sampled at t; 'zoh' commands held until the next
     # sample (a digital drive); 'auto' or no key: zoh here, and identify() checks the data
@@ -254,7 +294,7 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
                     t_mid=cat("t_mid"), decim=decim, t=np.empty(0),
                     q=np.empty(0), v=np.empty(0), a=np.empty(0), tau=np.empty(0), cutoff=fc,
                     frequency=f_exc, periodic=periodic, sos=sos, segments=bounds,
-                    velocity_source=source, tau_mid=cat("tau_mid"))
+                    velocity_source=source, tau_mid=cat("tau_mid"), velocity_band=band)
     c.t = c.decimate(t)
     c.q, c.v, c.a, c.tau = c.lowpass(q), c.lowpass(cat("v_raw")), c.lowpass(cat("a_raw")), c.lowpass(cat("tau_raw"))
     c.rest_starts = rest_starts(c, rec.reading.get("standstill_spans", ()))

@@ -151,3 +151,25 @@ def test_held_poses_are_left_out_of_dwells_and_found_nowhere_else():
             other, _ = independent_record(spec, seed=seed, **kw)
             data, _ = prepare(on_grid(other))
             assert not data.held_poses, (joint, list(kw), data.held_poses)
+
+
+def _felt_map(joint, seed, integral):
+    spec, rec = _log(joint, seed, "felt", integral=integral)
+    doc = analyze_record(rec).report()
+    p = doc["parameters"]
+    return (joint, seed, {k: round(p[k] / getattr(spec.friction, k) - 1, 3) for k in ("Fc", "Fs", "sigma2")},
+            doc["identifiable"]["Fc"], [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            doc["unexplained"]["structured"])
+
+
+def test_a_felt_disturbance_under_the_loop_does_not_bend_the_friction_map():
+    """Under a position loop the disturbance a joint feels moves it at creep speeds, and the
+    model velocity must keep that motion's band (``bench.signals.velocity_band``).  At 4x the
+    comparison cutoff, tuning seeds 1950-1970: Fc unidentifiable or 5-99 % off on 4 of 6
+    geared joints (j1, j3: the fit bent the Stribeck dip to absorb 2 % of Fc left at creep
+    speeds); with the band, 24 clean logs (1980-2003, PD and PID, felt and reading noise) all
+    within 5 %, Fc identifiable, nothing named or flagged.  Fresh seeds here, geared joints."""
+    items = [(joint, 5846 + i, (0.0, 1.5)[i % 2]) for i, joint in enumerate(("j1", "j3", "j1", "j3", "j2", "j4"))]
+    rows = map_records(_felt_map, items)
+    bent = [r for r in rows if not (r[3] and all(abs(e) <= 0.05 for e in r[2].values()) and not r[4] and not r[5])]
+    assert len(bent) <= 1, bent
