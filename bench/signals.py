@@ -193,15 +193,30 @@ def motion_frequency(t: np.ndarray, q: np.ndarray, dt: float | None = None,
     return n / (2.0 * span), n
 
 
+def smoothed_velocity(q: np.ndarray, dt: float, steps: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """(the motion's velocity, smoothed over 20 ms: a coarse encoder's count-to-count chatter
+    gone; the width w in samples).  Sample i is the difference after w // 2 + i over ``dt``, or
+    over each of ``steps`` (the record's own, uneven: ``steps[j]`` is t[j + 1] - t[j])."""
+    w = max(1, int(round(0.02 / dt)))
+    qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
+    h = dt if steps is None else np.maximum(steps[w // 2: w // 2 + len(qs) - 1], 1e-12)
+    return np.diff(qs) / h, w
+
+
+def white_noise_rms(pieces) -> float:
+    """RMS of white noise on a signal, read from the fourth differences of its ``pieces``
+    (evenly sampled runs): a smooth motion has next to none at the sample rate, white noise
+    sigma has 70 sigma^2."""
+    d4 = [np.diff(np.asarray(x, dtype=float), 4) for x in pieces if len(x) > 8]
+    return float(np.std(np.concatenate(d4))) / math.sqrt(70.0) if d4 else 0.0
+
+
 def motion_reversals(q: np.ndarray, dt: float, steps: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """(the reversals of ``motion_frequency``'s smoothed velocity, the smoothing's width w):
     reversal i lies between samples w // 2 + k[i] and the next of ``q``.  The velocity is the
     smoothed position's difference over ``dt``, or over each of ``steps`` (the record's own,
     uneven: ``steps[j]`` is t[j + 1] - t[j])."""
-    w = max(1, int(round(0.02 / dt)))
-    qs = np.convolve(q, np.ones(w) / w, mode="valid") if w > 1 else q
-    h = dt if steps is None else np.maximum(steps[w // 2: w // 2 + len(qs) - 1], 1e-12)
-    v = np.diff(qs) / h
+    v, w = smoothed_velocity(q, dt, steps)
     vmax = float(np.percentile(np.abs(v), 99.5)) if len(v) else 0.0
     if vmax <= 0:
         return np.zeros(0, dtype=int), w
@@ -240,14 +255,13 @@ def velocity_band(q: np.ndarray, bounds, dt: float, fc: float, load_encoder: boo
     lo, hi = V_BAND[0] * fc, min(V_BAND[1] * fc, 0.4 * fs)
     if hi <= lo or load_encoder:
         return min(lo, 0.4 * fs)
-    d4 = [np.diff(q[a:b], 4) for a, b in bounds if b - a > 8]
-    w = max(1, int(round(0.02 / dt)))      # motion_reversals' smoothing: the top speed, not noise
-    tops = [np.abs(np.diff(np.convolve(q[a:b], np.ones(w) / w, mode="valid"))) / dt
-            for a, b in bounds if b - a > w + 1]
-    if not d4 or not tops:
+    w = max(1, int(round(0.02 / dt)))     # smoothed_velocity's width
+    runs = [q[a:b] for a, b in bounds if b - a > w + 1]
+    if not runs or not any(b - a > 8 for a, b in bounds):
         return lo
-    s_q = float(np.std(np.concatenate(d4))) / math.sqrt(70.0)
-    v_top = float(np.percentile(np.concatenate(tops), 99.5))
+    s_q = white_noise_rms(q[a:b] for a, b in bounds)
+    # the top speed from the smoothed motion, not from its noise
+    v_top = float(np.percentile(np.abs(np.concatenate([smoothed_velocity(r, dt)[0] for r in runs])), 99.5))
     if not v_top > 0.0:
         return lo
     noise = 2.0 * math.pi * s_q * math.sqrt(2.0 * hi ** 3 / (3.0 * fs)) / v_top

@@ -27,7 +27,7 @@ import numpy as np
 
 from bench.level_drift import biased, changes
 from bench.predictability import MIN_PREDICTED, T_CRIT
-from bench.signals import Conditioned, held_torque, second_difference
+from bench.signals import Conditioned, held_torque, second_difference, white_noise_rms
 
 MIN_SIZE = 0.01           # predictable residual rms / Fc below which nothing is worth naming...
 # ...unless the state predicts nearly all of it: then it is physics even when small.  Clean
@@ -100,12 +100,10 @@ def noise_floor(c: Conditioned, tau: np.ndarray, q: np.ndarray, inertia: float,
                 mask: np.ndarray) -> float:
     """RMS of the measurement noise in the compared friction estimate (tau - M q''), through
     the same operators (held torque, second difference, decimation, low-pass).  Each noise
-    level comes from the record's own fourth differences: a smooth excitation has next to
-    none at the sample rate, white noise sigma has 70 sigma^2 (encoder quantisation is
-    treated as white, which slightly overstates it where the joint creeps)."""
-    k4 = np.sqrt(70.0)
-    s_tau = float(np.std(np.diff(tau, 4))) / k4
-    s_q = float(np.std(np.diff(q, 4))) / k4
+    level comes from the record's own fourth differences (``white_noise_rms``; encoder
+    quantisation is treated as white, which slightly overstates it where the joint creeps)."""
+    s_tau = white_noise_rms([tau])
+    s_q = white_noise_rms([q])
     rng = np.random.default_rng(0)
     n_tau = c.lowpass(held_torque(s_tau * rng.standard_normal(len(tau))))
     n_acc = c.lowpass(second_difference(s_q * rng.standard_normal(len(q)), c.dt))
