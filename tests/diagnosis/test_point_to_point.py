@@ -173,3 +173,38 @@ def test_a_felt_disturbance_under_the_loop_does_not_bend_the_friction_map():
     rows = map_records(_felt_map, items)
     bent = [r for r in rows if not (r[3] and all(abs(e) <= 0.05 for e in r[2].values()) and not r[4] and not r[5])]
     assert len(bent) <= 1, bent
+
+
+def _geared(joint, seed, gear, integral):
+    """A geared joint's point-to-point log, felt disturbance, encoder on the motor."""
+    spec = PRESETS[joint]
+    Fc = spec.friction.Fc
+    ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], DURATION, np.random.default_rng([seed, 9]))
+    rec, _ = independent_record(spec, duration=DURATION, seed=seed, pd=(6.0, 0.0, integral), reference=ref,
+                                jitter=0.3, drop=0.005, disturbance=0.01 * Fc, **gear)
+    doc = analyze_record(rec).report()
+    d = doc["diagnosis"]
+    return (joint, seed, sorted(gear), d[0]["effect"], [x["effect"] for x in d if x["significant"]],
+            doc["unexplained"]["structured"])
+
+
+def test_geared_joints_on_point_to_point_logs_tell_backlash_and_no_wrong_story():
+    """Smooth moves under a loop: each reversal still takes the motor through the teeth's play
+    without the load, so backlash stays visible; a gear spring's twist follows the fourth
+    derivative of the motion and stays under a 1 % disturbance.  Tuning seeds 1560-1595
+    (2026-11-30, PD and PID at 1.5 Hz, j1-j4, all friction on the motor): backlash of 2.5-3
+    mrad first on 15 of 16 (credited on 10), springs of 7-12 Hz named on 1 of 16 and nothing
+    flagged; one wrong story in 32 (position-dependent friction credited for a 12 Hz spring on
+    j1).  Before the model velocity kept its band: backlash 2 of 8, a wrong story on 4 of 24.
+    With half the friction beyond the gear (1552-1559) it is not so (README, known limits)."""
+    items = [(joint, 5852 + i, dict(backlash=0.002 + 0.0005 * (i % 4), load_share=(0.5, 0.6)[i // 4]),
+              (0.0, 1.5)[i % 2]) for i, joint in enumerate(("j1", "j2", "j3", "j4") * 2)]
+    rows = map_records(_geared, items)
+    # first on 15 of 16 while tuning; the bar leaves two of eight
+    missed = [r for r in rows if r[3] != "backlash" or set(r[4]) - {"backlash"} or r[5]]
+    assert len(missed) <= 2, missed
+    items = [(joint, 5860 + i, dict(flex_hz=(6.0, 8.0, 10.0, 14.0)[i % 4]), (0.0, 1.5)[i % 2])
+             for i, joint in enumerate(("j1", "j2", "j3", "j4") * 2)]
+    rows = map_records(_geared, items)
+    wrong = [r for r in rows if set(r[4]) - {"joint_flexibility"}]
+    assert len(wrong) <= 1, wrong
