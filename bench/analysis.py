@@ -92,7 +92,9 @@ class Analysis:
                                     self.predictability(), data.coulomb, d.replay_rms,
                                     lugre=(doc["parameters"], doc["uncertainty"]),
                                     load_encoder=self.record.load_encoder,
-                                    torque_unit="N·m" if data.revolute else "N")
+                                    torque_unit="N·m" if data.revolute else "N",
+                                    screens=[(c.effect, c.explained, math.sqrt(max(c.mse_before - c.mse_after, 0.0)))
+                                             for c in d.remaining if c.effect not in d.model.names()])
         return doc
 
     def predictability(self) -> dict:

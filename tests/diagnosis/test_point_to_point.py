@@ -208,3 +208,22 @@ def test_geared_joints_on_point_to_point_logs_tell_backlash_and_no_wrong_story()
     rows = map_records(_geared, items)
     wrong = [r for r in rows if set(r[4]) - {"joint_flexibility"}]
     assert len(wrong) <= 1, wrong
+
+
+def _beyond(joint, seed, gear, integral):
+    _, seed, _, first, credited, structured = _geared(joint, seed, gear, integral)
+    return joint, seed, gear, credited, structured
+
+
+def test_friction_beyond_the_gear_under_a_loop_is_not_called_nothing_left():
+    """Half the friction beyond a gear (backlash or a spring), under smooth moves in a loop:
+    the residual follows the acceleration or the torque's rate, which the state learner is not
+    given, and the library's gear effects rarely take it, so the verdict must not say "nothing
+    left" (``bench.unexplained.screened_structure``).  Tuning seeds 1540-1559 (2026-11-30):
+    "nothing left" without a gear effect on 12 of 16 before (2.4-9.5 % of Fc left), 2 after."""
+    items = [(joint, 5868 + i, dict(backlash=0.003, friction_on_load=0.5) if i % 2 else
+              dict(flex_hz=(7.0, 9.0)[i // 4], friction_on_load=0.5), (0.0, 1.5)[(i // 2) % 2])
+             for i, joint in enumerate(("j1", "j2", "j3", "j4") * 2)]
+    rows = map_records(_beyond, items)
+    quiet = [r for r in rows if not r[4] and not {"backlash", "joint_flexibility"} & set(r[3])]
+    assert len(quiet) <= 2, quiet
