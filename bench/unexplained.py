@@ -185,12 +185,10 @@ def screened_structure(screens: list[tuple[str, float, float]], friction_level: 
     return max(hits, key=lambda s: s[2]) if hits else None
 
 
-def _screen_physics(effect: str) -> str:
-    from bench.effects import get
-    own = {"torque_lag": "torque_rate", "inertia_error": "acceleration"}.get(effect)
-    sig = own or next(iter(get(effect).signals), None)
-    where = LINEAR.get(sig) or SIGNALS.get(sig)
-    return where[1] if where else "physics outside the library"
+# what a term predicts and the state learner does not follows the dynamics, not the state
+DYNAMICS = ("physics that follows the joint's dynamics rather than its state: a compliant transmission or a "
+            "gear with friction beyond it (the load moves apart from the motor the encoder reads; record the "
+            "load's side or a sine test), or a lag between the commanded and the applied torque")
 
 
 def assess(final: dict, rms: float | None, floor: float | None, predictability: dict,
@@ -213,14 +211,14 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
     if hit and not out["structured"]:
         # only the verdict, as the bias below: the analysis's choices were tuned without it
         name, share, removed = hit
-        look = _screen_physics(name)
         out["screened"] = {"effect": name, "predicted_fraction": share, "rms": removed}
-        out["look_for"].append(look)
+        out["look_for"].append(DYNAMICS)
         out.update(structured=True, evidence=(
             f"the final model leaves a structured residual that no effect in the library explains: a "
             f"{name} term fitted on some motion segments predicts {100 * share:.0f} % of it on the others "
             f"({100 * removed / friction_level:.2g} % of the Coulomb level), yet {name} was not credited "
-            f"(its own physics did not hold, or its gain swung between segments); look for {look}"))
+            f"(its own physics did not hold, or its gain swung between segments), and a learner on the "
+            f"joint's state predicts {100 * max(out['predicted_fraction'], 0.0):.0f} %; look for {DYNAMICS}"))
     bent = rising_map(*lugre, degenerate=out["structured"]) if lugre is not None else None
     out["rising_map"] = bent is not None
     if bent:
