@@ -93,8 +93,8 @@ class Analysis:
                                     lugre=(doc["parameters"], doc["uncertainty"]),
                                     load_encoder=self.record.load_encoder,
                                     torque_unit="N·m" if data.revolute else "N",
-                                    screens=[(c.effect, c.explained, math.sqrt(max(c.mse_before - c.mse_after, 0.0)))
-                                             for c in d.remaining if c.effect not in d.model.names()])
+                                    # the last round's terms: none is in the final model
+                                    screens=[(c.effect, c.explained, c.removed_rms) for c in d.remaining])
         return doc
 
     def predictability(self) -> dict:

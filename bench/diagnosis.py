@@ -206,7 +206,7 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                                for e in candidates) if s]
         small = []    # significant and most of what is left, but below the size the diagnosis names
         for sc in screens:
-            below = sc.significant and math.sqrt(max(sc.mse_before - sc.mse_after, 0.0)) < MIN_EXPLAINED_SIZE * data.coulomb
+            below = sc.significant and sc.removed_rms < MIN_EXPLAINED_SIZE * data.coulomb
             if sc.effect in rejected:
                 sc.significant = False
             elif sc.significant and sc.size < MIN_EFFECT * data.coulomb:

@@ -80,6 +80,11 @@ class Screen:
     explained_halves: float = float("nan")   # position series: ``explained_across_halves``
     others: list = field(default_factory=list)   # the other variants' (init, beta), best first
 
+    @property
+    def removed_rms(self) -> float:
+        """The held-out rms the term removes."""
+        return math.sqrt(max(self.mse_before - self.mse_after, 0.0))
+
 
 class CrossValidation:
     """Scores linear corrections of a residual on held-out cycles."""

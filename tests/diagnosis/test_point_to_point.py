@@ -31,8 +31,9 @@ from virtual_drives.presets import PRESETS
 DURATION = 30.0
 
 
-def _log(joint, seed, condition, physics=None, integral=0.0, **shape):
-    """``integral``: the loop's integral corner (Hz; 0: a PD)."""
+def _log(joint, seed, condition, physics=None, integral=0.0, gear=None, **shape):
+    """``integral``: the loop's integral corner (Hz; 0: a PD); ``gear``: the independent
+    simulator's backlash / flex_hz / load_share / friction_on_load."""
     spec = PRESETS[joint]
     Fc = spec.friction.Fc
     ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], DURATION,
@@ -40,7 +41,7 @@ def _log(joint, seed, condition, physics=None, integral=0.0, **shape):
     noise = dict(disturbance=0.01 * Fc) if condition == "felt" else dict(torque_noise=0.02 * Fc)
     rec, _ = independent_record(spec, duration=DURATION, seed=seed, physics=physics,
                                 pd=(6.0, 0.0, integral), reference=ref, jitter=0.3, drop=0.005,
-                                **noise)
+                                **noise, **(gear or {}))
     return spec, rec
 
 
@@ -178,12 +179,7 @@ def test_a_felt_disturbance_under_the_loop_does_not_bend_the_friction_map():
 
 def _geared_report(joint, seed, gear, integral):
     """A geared joint's point-to-point log, felt disturbance, encoder on the motor: its report."""
-    spec = PRESETS[joint]
-    Fc = spec.friction.Fc
-    ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], DURATION, np.random.default_rng([seed, 9]))
-    rec, _ = independent_record(spec, duration=DURATION, seed=seed, pd=(6.0, 0.0, integral), reference=ref,
-                                jitter=0.3, drop=0.005, disturbance=0.01 * Fc, **gear)
-    return analyze_record(rec).report()
+    return analyze_record(_log(joint, seed, "felt", integral=integral, gear=gear)[1]).report()
 
 
 def _geared(joint, seed, gear, integral):
