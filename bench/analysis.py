@@ -28,7 +28,7 @@ from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
-from bench.unexplained import assess, level_changes, noise_floor, structured
+from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
 
@@ -314,6 +314,9 @@ def _diagnose(ident: Identification, rec: Record, add):
             if level_changes(p, data.coulomb):   # the level changes over time: time first
                 return (["time"] + [k for k in p["relies_on"] if k != "time"],
                         max(p["structured_rms"], p["level"]["changing_rms"]))
+            if rest_grows(p, data.coulomb) and not state_structured(
+                    p, data.coulomb, diag.replay_rms, diag.final_rms / floor if floor > 0 else None):
+                return ["rest_before"], p["rest"]["growing_rms"]   # no effect has that signal
             return p["relies_on"], p["structured_rms"]
         return drop_absorbers(ident.data, diag, meta, ident.inertia, leftover)
 

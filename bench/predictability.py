@@ -27,6 +27,7 @@ import numpy as np
 
 from bench.checkpoint import checkpoint
 from bench.level_drift import bias, level_change
+from bench.rest_memory import rest_memory
 from bench.signals import binned_r2, paired_t
 
 # Held-out fraction of residual variance the learner must predict, and the consistency of its
@@ -136,7 +137,7 @@ def assess_predictability(c, residual: np.ndarray, cv, explain: bool = True) -> 
     out = {"predicted_fraction": predicted, "t": t,
            "structured_rms": scale * math.sqrt(max(predicted, 0.0)), "relies_on": [],
            "importance": {}, "level": level_change(c, residual, scored), "bias": bias(c, residual, scored),
-           "tied": {}}
+           "rest": rest_memory(c, residual, scored), "tied": {}}
     if explain and predicted > 0:
         out["tied"] = ties(feats)
         rng = np.random.default_rng(0)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from bench.level_drift import biased, changes
+from bench.rest_memory import grows
 from bench.predictability import MIN_PREDICTED, T_CRIT
 from bench.signals import Conditioned, held_torque, second_difference, white_noise_rms
 
@@ -86,6 +87,8 @@ SIGNALS = {
 LEVEL_PHYSICS = ("a friction change during the record that one warm-up exponential does not describe "
                  "(a step: lubricant redistributed, a seal, a load or a contact change; a temperature "
                  "that rises and falls)")
+REST_PHYSICS = ("static friction that grows with the time at rest (a dwell-time dependent breakaway, "
+                "Kato's or Rabinowicz's law), which LuGre's breakaway does not remember")
 REGIME_PHYSICS = {
     # the same words as the travel signal's, so a residual that shows both reads them once
     "presliding": SIGNALS["travel_since_reversal"][1],
@@ -115,7 +118,8 @@ def structured(p: dict, friction_level: float, replay_rms: float = 0.0,
                above_floor: float | None = None) -> bool:
     """Predicted clearly better than chance on held-out segments, large enough to matter, and
     clearly more than a perfect model leaves on this record (``bench.perfect_model``)."""
-    return state_structured(p, friction_level, replay_rms, above_floor) or level_changes(p, friction_level)
+    return (state_structured(p, friction_level, replay_rms, above_floor) or level_changes(p, friction_level)
+            or rest_grows(p, friction_level))
 
 
 def state_structured(p: dict, friction_level: float, replay_rms: float = 0.0,
@@ -126,6 +130,12 @@ def state_structured(p: dict, friction_level: float, replay_rms: float = 0.0,
         p["predicted_fraction"] >= MOSTLY_PREDICTED or (above_floor or 0.0) > ABOVE_FLOOR)
     return bool(p["predicted_fraction"] >= MIN_PREDICTED and p["t"] >= T_CRIT and big
                 and p["structured_rms"] >= ABOVE_REPLAY * replay_rms)
+
+
+def rest_grows(p: dict, friction_level: float) -> bool:
+    """Does the breakaway grow with the rest before it (``bench.rest_memory``), by at least
+    ``MIN_SIZE`` of the Coulomb level?"""
+    return "rest" in p and grows(p["rest"], friction_level, MIN_SIZE, MIN_PREDICTED, T_CRIT)
 
 
 def level_changes(p: dict, friction_level: float) -> bool:
@@ -267,7 +277,7 @@ def _assess(final: dict, rms: float | None, floor: float | None, predictability:
                  "structured_vs_coulomb": size, "relies_on": list(p["relies_on"]),
                  "correlation_time_ratio": ratio, "noise_floor": floor, "rms_vs_noise_floor": above,
                  "concentrated_in": None, "direction": None, "follows": None, "tied_with": [], "look_for": [],
-                 "level_change": p.get("level"), "evidence": ""}
+                 "level_change": p.get("level"), "rest_memory": p.get("rest"), "evidence": ""}
     pct = 100.0 * max(p["predicted_fraction"], 0.0)
     if not out["structured"]:
         why = (f"its predictable part ({100 * size:.2g} % of the Coulomb level) is too small or no more than the "
@@ -306,6 +316,13 @@ def _assess(final: dict, rms: float | None, floor: float | None, predictability:
                      f"{100 * lv['predicted_fraction']:.0f} % held out, t = {lv['t']:.1f}; "
                      f"{100 * lv['changing_rms'] / friction_level:.2g} % of the Coulomb level)")
         out["look_for"].append(LEVEL_PHYSICS)
+    if rest_grows(p, friction_level):
+        rm = p["rest"]
+        parts.append(f"{'and ' if parts else 'the final model leaves a structured residual that no effect in the library explains: '}"
+                     f"the breakaway grows with the time the joint rested before it ({rm['starts']} starts from rest; "
+                     f"the rest predicts {100 * rm['predicted_fraction']:.0f} % of their level errors held out, "
+                     f"t = {rm['t']:.1f}; {100 * rm['growing_rms'] / friction_level:.2g} % of the Coulomb level)")
+        out["look_for"].append(REST_PHYSICS)
     total = sum((r["rms"] or 0.0) ** 2 * r["fraction"] for r in final["by_regime"].values()) or 1.0
     shares = {name: ((r["rms"] or 0.0) ** 2 * r["fraction"] / total, r["fraction"])
               for name, r in final["by_regime"].items() if r["fraction"] > 0}

@@ -32,14 +32,17 @@ def _rates(x, u, d, P, t):
     level going negative (relative), a sudden change of both levels (relative) and its time,
     Coulomb/Stribeck levels growing with the transmitted torque (mu: added level per |torque|),
     a static map's regularising speed, the bristle damping's fade speed, Stribeck's exponent,
-    and 1 for Simscape's map in place of the static one."""
+    1 for Simscape's map in place of the static one, frictional lag's time constant (the
+    Stribeck curve sees the velocity through a first-order lag: Hess & Soom, Armstrong's
+    seven-parameter model), and static friction's rise with dwell time (relative), its growth
+    and fade times.  x[7]: the lagged velocity; x[8]: the dwell's share of its full rise."""
     Fc, Fs, al, s0, s1, s2 = P[0], P[1], P[2], P[3], P[4], P[5]
     Jm, Jl, gap, k, c, geared, share = P[6], P[7], P[8], P[9], P[10], P[11], P[12]
     mgl, q0, lag, cog, cog_p, cog_h2 = P[13], P[14], P[15], P[16], P[17], P[18]
     rip, rip_p, warm, warm_t, const, asym = P[19], P[20], P[21], P[22], P[23], P[24]
     jump, jump_t, load_mu, static_eps, s1_vd, dexp = P[25], P[26], P[27], P[28], P[29], P[30]
-    simscape = P[31]
-    out = np.zeros(7)
+    simscape, f_lag, rise, rise_t, fade_t = P[31], P[32], P[33], P[34], P[35]
+    out = np.zeros(9)
     vm, vl = x[1], x[4]
     # the drive's current loop: a first-order lag between the command and the torque felt
     if lag > 0:
@@ -60,8 +63,20 @@ def _rates(x, u, d, P, t):
     if load_mu != 0.0:   # the mesh's friction grows with the torque it carries
         scale *= 1.0 + load_mu * abs(u) / Fc
     visc = s2 * (1.0 - warm * (1.0 - math.exp(-t / warm_t))) if warm != 0.0 else s2
+    # frictional lag: the Stribeck level follows the velocity a time constant late
+    v_s = vm
+    if f_lag > 0.0:
+        out[7] = (vm - x[7]) / f_lag
+        v_s = x[7]
+    # static friction rising with dwell time: grows while stuck (|v| well under the Stribeck
+    # speed), fades once sliding; smooth in v so the integrator sees no switch
+    fs_scale = 1.0
+    if rise > 0.0:
+        stuck = math.exp(-(al * vm / 0.05) ** 2)
+        out[8] = stuck * (1.0 - x[8]) / rise_t - (1.0 - stuck) * x[8] / fade_t
+        fs_scale = 1.0 + rise * x[8]
     # Stribeck's dip, exp(-|v/vs|^dexp): many simulators write it Gaussian (dexp = 2, Armstrong)
-    g = scale * (Fc + (Fs - Fc) * math.exp(-abs(al * vm) ** dexp))
+    g = scale * (Fc + (Fs * fs_scale - Fc) * math.exp(-abs(al * v_s) ** dexp))
     if static_eps > 0.0 and simscape != 0.0:
         # Simscape's Rotational Friction: sqrt(2e) (Fbrk - Fc) exp(-(v/v_St)^2) v/v_St
         # + Fc tanh(v/v_Coul) + f v, with v_St = sqrt(2) v_brk and v_Coul = v_brk / 10; here
@@ -176,11 +191,16 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     ``sigma1_vd`` fades the motor's bristle damping with speed, sigma1 exp(-(v / vd)^2);
     ``stribeck_delta`` shapes Stribeck's dip, exp(-|alpha v|^delta) (2: Armstrong's Gaussian);
     ``simscape`` (with ``static_eps``) writes the static map as Simscape's Rotational Friction
-    block does: breakaway Fs at v_brk = 10 static_eps, Fc at rest and at speed."""
+    block does: breakaway Fs at v_brk = 10 static_eps, Fc at rest and at speed.  Outside the
+    library too: ``fric_lag`` (s), frictional lag, the Stribeck level following the velocity
+    through a first-order lag; ``dwell_rise`` (relative, with ``dwell_tau``, ``dwell_fade``, s),
+    static friction Fs (1 + dwell_rise w), w growing towards 1 while the joint sticks and
+    fading while it slides."""
     ph = dict(physics or {})
     unknown = set(ph) - {"mgl", "q0", "lag", "detent", "detent_pitch", "detent_h2", "ripple",
                          "ripple_pitch", "warm", "warm_tau", "constant", "asym", "jump", "jump_t", "load_mu",
-                         "static_eps", "sigma1_vd", "stribeck_delta", "simscape"}
+                         "static_eps", "sigma1_vd", "stribeck_delta", "simscape", "fric_lag",
+                         "dwell_rise", "dwell_tau", "dwell_fade"}
     assert not unknown, unknown
     rng = np.random.default_rng([seed, 77])
     f = spec.friction
@@ -203,7 +223,8 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
                   ph.get("warm_tau", 1.0), ph.get("constant", 0.0), ph.get("asym", 0.0),
                   ph.get("jump", 0.0), ph.get("jump_t", 0.0), ph.get("load_mu", 0.0),
                   ph.get("static_eps", 0.0), ph.get("sigma1_vd", 0.0), ph.get("stribeck_delta", 1.0),
-                  1.0 if ph.get("simscape") else 0.0])
+                  1.0 if ph.get("simscape") else 0.0, ph.get("fric_lag", 0.0),
+                  ph.get("dwell_rise", 0.0), ph.get("dwell_tau", 1.0), ph.get("dwell_fade", 0.05)])
     gains = np.zeros(4)
     ref = np.zeros((n, 2))
     if pd is not None:
@@ -219,7 +240,7 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
             ref[:, 0] = np.asarray(reference, dtype=float)[:n]
             ref[:, 1] = np.gradient(ref[:, 0], dt)
         u = np.zeros(n)
-    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(7),
+    path = _run(u, n_sub, dt / n_sub, P, disturbance, disturbance_tau, int(seed), np.zeros(9),
                 gains, ref)
     fine_t = np.arange(n * n_sub + 1) * (dt / n_sub)
     ts = np.sort(t + jitter * dt * rng.uniform(-0.5, 0.5, n))

@@ -133,8 +133,9 @@ def best_gears(ctx: Context, gears: list[tuple[float, float, float]], count: int
     (kappa 0) and a share of it on the load (``kappas`` x 1 / M_jj), then a fine one around
     each pick (and, for a spring, the damping among ``dampings``); the screening and the joint
     fit then judge them."""
-    score = gear_scorer(ctx)
-    if ctx.data.load_encoder:       # a spring seen from the load (bench.load_side.spring_slip)
+    if not ctx.data.load_encoder:
+        score = gear_scorer(ctx)
+    else:       # a spring seen from the load (bench.load_side.spring_slip)
         # the friction runs on the motor's velocity, which the spring sets: a LuGre fit on the
         # load's is bent out of shape (Fs 10x Fc on j1, tuning seed 1504) and scores every
         # spring badly, so the grid scores a static map fitted afresh along each candidate's
