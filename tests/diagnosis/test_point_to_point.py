@@ -21,7 +21,7 @@ import numpy as np
 
 from bench.analysis import analyze_record
 from bench.errors import NotIdentifiable
-from bench.unexplained import DYNAMICS
+from bench.unexplained import DYNAMICS, REST_PHYSICS
 from independent_joint import independent_record, point_to_point
 from tests.diagnosis.test_conditions import _within
 from tests.diagnosis.test_independent_records import _travel
@@ -31,15 +31,15 @@ from virtual_drives.presets import PRESETS
 DURATION = 30.0
 
 
-def _log(joint, seed, condition, physics=None, integral=0.0, gear=None, **shape):
+def _log(joint, seed, condition, physics=None, integral=0.0, gear=None, duration=DURATION, **shape):
     """``integral``: the loop's integral corner (Hz; 0: a PD); ``gear``: the independent
     simulator's backlash / flex_hz / load_share / friction_on_load."""
     spec = PRESETS[joint]
     Fc = spec.friction.Fc
-    ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], DURATION,
+    ref = point_to_point(_travel(spec), 0.5 / spec.excitation[1], duration,
                          np.random.default_rng([seed, 9]), **shape)
     noise = dict(disturbance=0.01 * Fc) if condition == "felt" else dict(torque_noise=0.02 * Fc)
-    rec, _ = independent_record(spec, duration=DURATION, seed=seed, physics=physics,
+    rec, _ = independent_record(spec, duration=duration, seed=seed, physics=physics,
                                 pd=(6.0, 0.0, integral), reference=ref, jitter=0.3, drop=0.005,
                                 **noise, **(gear or {}))
     return spec, rec
@@ -232,3 +232,36 @@ def test_friction_beyond_the_gear_under_a_loop_is_not_called_nothing_left():
     quiet = [r for r in rows if not r[4] and not {"backlash", "joint_flexibility"} & set(r[3])]
     assert len(quiet) <= 2, quiet
     assert all(r[5] for r in rows), rows
+
+
+
+def _dwell(joint, seed, rise, integral):
+    """A minute's log; ``rise``: static friction's rise with the dwell (0: a clean joint), its
+    time constant about the median dwell (0.3-1.5 half periods)."""
+    spec = PRESETS[joint]
+    physics = dict(dwell_rise=rise, dwell_tau=0.45 / spec.excitation[1]) if rise else None
+    _, rec = _log(joint, seed, "felt", physics=physics, integral=integral, duration=60.0)
+    doc = analyze_record(rec).report()
+    u = doc["unexplained"]
+    return (joint, seed, rise, [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            u["structured"], REST_PHYSICS in u["look_for"], u["rest_memory"])
+
+
+def test_static_friction_that_rises_with_the_dwell_is_not_called_nothing_left():
+    """A breakaway that grows with the rest before it (static friction rising with dwell time,
+    outside the library) on a working robot's minute-long log: nothing credited, and the
+    verdict not "nothing left" (``bench.rest_memory``); clean logs of the same kind are not
+    flagged by it.  Tuning seeds on the linear stage (1244-1305, 60 and 90 s): structured 23 of
+    24, the rest's hint on 19 of 24, nothing credited; before the rule the learner said
+    "nothing left" on 30 s logs (1224, 1244, 1250: 3 of 3, at 2.9-3.7 % of Fc where a clean one
+    leaves 0.5-0.8 %).  Seeds 5876-5881 were first run against bars set from 8 of those
+    records (all structured) and left one "nothing left" of 4, the hint on 2; these bars come
+    from all 24 and these seeds were not run before."""
+    items = [("linear", 5882 + i, round(0.25 + 0.05 * i, 2), (0.0, 1.5)[i % 2]) for i in range(4)]
+    items += [("linear", 5886 + i, 0.0, (0.0, 1.5)[i % 2]) for i in range(2)]
+    rows = map_records(_dwell, items)
+    rising, clean = rows[:4], rows[4:]
+    assert not [r for r in rows if r[3]], rows
+    assert sum(r[4] for r in rising) >= 3, rising
+    assert sum(r[5] for r in rising) >= 2, rising
+    assert not [r for r in clean if r[5]], clean     # the learner's own verdict: the clean-log test
