@@ -6,7 +6,7 @@ away harder.  LuGre's breakaway does not depend on how long the joint stood, so 
 robot's log (moves between dwells of varying length) the model leaves a spike at each start
 from rest whose size follows the dwell before it.  The state learner (``bench.predictability``)
 cannot see it: its inputs are instantaneous, and the spikes are too short for its leaves
-(independent simulator, static friction rising 25-50 % with dwell, point-to-point logs under
+(independent simulator, static friction rising 24-49 % with dwell, point-to-point logs under
 a PID loop: "nothing left" on 6 of 6 tuning records at 2-4x a clean log's residual).
 
 So it is tested apart, like a level drift (``bench.level_drift``): per start from rest, the
