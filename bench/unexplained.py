@@ -88,7 +88,8 @@ LEVEL_PHYSICS = ("a friction change during the record that one warm-up exponenti
                  "(a step: lubricant redistributed, a seal, a load or a contact change; a temperature "
                  "that rises and falls)")
 REST_PHYSICS = ("static friction that grows with the time at rest (a dwell-time dependent breakaway, "
-                "Kato's or Rabinowicz's law), which LuGre's breakaway does not remember")
+                "Kato's or Rabinowicz's law), which LuGre's breakaway does not remember; or a load that "
+                "differs after the long rests (a payload picked up or put down during them)")
 REGIME_PHYSICS = {
     # the same words as the travel signal's, so a residual that shows both reads them once
     "presliding": SIGNALS["travel_since_reversal"][1],
