@@ -309,13 +309,13 @@ def _diagnose(ident: Identification, rec: Record, add):
 
         def leftover(residual):
             p = diag.final_predictability = assess_predictability(data.c, residual, diag.cv)
-            if not structured(p, data.coulomb, diag.replay_rms, diag.final_rms / floor if floor > 0 else None):
+            above = diag.final_rms / floor if floor > 0 else None
+            if not structured(p, data.coulomb, diag.replay_rms, above):
                 return [], 0.0
             if level_changes(p, data.coulomb):   # the level changes over time: time first
                 return (["time"] + [k for k in p["relies_on"] if k != "time"],
                         max(p["structured_rms"], p["level"]["changing_rms"]))
-            if rest_grows(p, data.coulomb) and not state_structured(
-                    p, data.coulomb, diag.replay_rms, diag.final_rms / floor if floor > 0 else None):
+            if rest_grows(p, data.coulomb) and not state_structured(p, data.coulomb, diag.replay_rms, above):
                 return ["rest_before"], p["rest"]["growing_rms"]   # no effect has that signal
             return p["relies_on"], p["structured_rms"]
         return drop_absorbers(ident.data, diag, meta, ident.inertia, leftover)

@@ -44,9 +44,14 @@ MIN_SPREAD = 0.2
 MIN_REST = 5
 
 
-def rest_before(t: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """How long the joint rested before it last started to move (at rest: how long so far)."""
-    rest = np.abs(v) < REST_SPEED * max(float(np.percentile(np.abs(v), 95)), 1e-300)
+def at_rest(v: np.ndarray) -> np.ndarray:
+    """Samples at rest (``REST_SPEED`` of the top speed)."""
+    return np.abs(v) < REST_SPEED * max(float(np.percentile(np.abs(v), 95)), 1e-300)
+
+
+def rest_before(t: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """How long the joint rested before it last started to move (at rest: how long so far);
+    ``rest``: ``at_rest``'s mask."""
     start = np.concatenate(([True], rest[1:] & ~rest[:-1]))
     began = np.maximum.accumulate(np.where(rest & start, np.arange(len(t)), 0))
     last_rest = np.maximum.accumulate(np.where(rest, np.arange(len(t)), 0))
@@ -58,8 +63,8 @@ def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, n
     top = float(np.percentile(np.abs(c.v), 95))
     if not top > 0:
         return np.zeros(0), np.zeros(0), np.zeros(0)
-    rest = np.abs(c.v) < REST_SPEED * top
-    before = rest_before(c.t, c.v)
+    rest = at_rest(c.v)
+    before = rest_before(c.t, rest)
     starts = np.nonzero(rest[:-1] & ~rest[1:])[0] + 1
     ends = np.nonzero(np.abs(c.v) >= SLIDING * top)[0]
     rows = []
@@ -96,10 +101,7 @@ def rest_memory(c, residual: np.ndarray, mask: np.ndarray) -> dict:
     X = np.c_[X0, rest]
     coef, *_ = np.linalg.lstsq(X, lv, rcond=None)
     e = lv - X @ coef
-    dof = n - X.shape[1]
-    if dof < 2:
-        return out
-    cov = np.linalg.pinv(X.T @ X) * float(e @ e) / dof
+    cov = np.linalg.pinv(X.T @ X) * float(e @ e) / (n - X.shape[1])     # n >= MIN_STARTS
     t = coef[2] / math.sqrt(max(cov[2, 2], 1e-300))
     # held out one start at a time: the leverage form of leave-one-out residuals
     def loo(M):

@@ -4,7 +4,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from bench.rest_memory import grows, rest_before, rest_memory
+from bench.rest_memory import at_rest, grows, rest_before, rest_memory
 
 DT = 0.01
 
@@ -31,7 +31,7 @@ def _moves(rests, level_of_rest, seed=0, noise=0.01):
 def test_rest_before_counts_the_last_rest():
     t = np.arange(12) * 0.1
     v = np.array([0, 0, 1, 1, 1, 0, 0, 0, 2, 2, 0, 3.0])
-    np.testing.assert_allclose(rest_before(t, v), [0, .1, .1, .1, .1, 0, .1, .2, .2, .2, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(rest_before(t, at_rest(v)), [0, .1, .1, .1, .1, 0, .1, .2, .2, .2, 0, 0], atol=1e-12)
 
 
 def test_a_breakaway_that_grows_with_the_rest_is_found_and_one_that_does_not_is_not():
