@@ -49,22 +49,38 @@ def at_rest(v: np.ndarray) -> np.ndarray:
     return np.abs(v) < REST_SPEED * max(float(np.percentile(np.abs(v), 95)), 1e-300)
 
 
-def rest_before(t: np.ndarray, rest: np.ndarray) -> np.ndarray:
-    """How long the joint rested before it last started to move (at rest: how long so far);
-    ``rest``: ``at_rest``'s mask."""
+def _began(rest: np.ndarray, first: np.ndarray | None) -> np.ndarray:
+    """Per sample, where the last rest began (a segment's first sample opens a rest afresh)."""
     start = np.concatenate(([True], rest[1:] & ~rest[:-1]))
-    began = np.maximum.accumulate(np.where(rest & start, np.arange(len(t)), 0))
+    if first is not None:
+        start = start | first
+    return np.maximum.accumulate(np.where(rest & start, np.arange(len(rest)), 0))
+
+
+def rest_before(t: np.ndarray, rest: np.ndarray, first: np.ndarray | None = None) -> np.ndarray:
+    """How long the joint rested before it last started to move (at rest: how long so far);
+    ``rest``: ``at_rest``'s mask; ``first``: the samples that open a segment (a record split
+    at its gaps), where a rest is counted afresh: the time across a gap is not a rest seen."""
+    began = _began(rest, first)
     last_rest = np.maximum.accumulate(np.where(rest, np.arange(len(t)), 0))
     return t[last_rest] - t[began]
 
 
 def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rest before, direction, level error) per start from rest whose breakaway is scored."""
+    """(rest before, direction, level error) per start from rest whose breakaway is scored.
+    A rest that opens the record or a segment is left out: how long the joint stood before the
+    logger saw it (or across a gap) is unknown."""
     top = float(np.percentile(np.abs(c.v), 95))
     if not top > 0:
         return np.zeros(0), np.zeros(0), np.zeros(0)
     rest = at_rest(c.v)
-    before = rest_before(c.t, rest)
+    seg = np.zeros(len(c.t), dtype=np.int64)
+    first = np.zeros(len(c.t), dtype=bool)
+    for k, (a, b) in enumerate(getattr(c, "grid_segments", [(0, len(c.t))])):
+        seg[a:b], first[a] = k, True
+    before = rest_before(c.t, rest, first)
+    opened = np.maximum.accumulate(np.where(first, np.arange(len(c.t)), 0))   # its segment's first
+    began = _began(rest, first)
     starts = np.nonzero(rest[:-1] & ~rest[1:])[0] + 1
     ends = np.nonzero(np.abs(c.v) >= SLIDING * top)[0]
     rows = []
@@ -73,10 +89,10 @@ def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, n
         if k == len(ends):
             break
         w = np.arange(s, ends[k] + 1)
-        if rest[w].any() or not mask[w].all():      # stopped again, or not scored
-            continue
-        if before[s - 1] < MIN_REST * (c.t[s] - c.t[s - 1]):
-            continue
+        if rest[w].any() or not mask[w].all() or seg[w[-1]] != seg[s - 1]:
+            continue                # stopped again, not scored, or across a gap
+        if began[s - 1] == opened[s - 1] or before[s - 1] < MIN_REST * (c.t[s] - c.t[s - 1]):
+            continue                # a rest of unknown length, or too short to tell
         d = np.sign(np.mean(c.v[w]))
         rows.append((before[s - 1], d, float(np.mean(residual[w]) * d)))
     if not rows:

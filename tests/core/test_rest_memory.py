@@ -34,6 +34,23 @@ def test_rest_before_counts_the_last_rest():
     np.testing.assert_allclose(rest_before(t, at_rest(v)), [0, .1, .1, .1, .1, 0, .1, .2, .2, .2, 0, 0], atol=1e-12)
 
 
+def test_a_rest_is_not_counted_across_a_gap_nor_before_the_record_opens():
+    t = np.r_[np.arange(6), np.arange(10, 16)] * 0.1            # a gap of 0.4 s after the 6th sample
+    v = np.array([1, 0, 0, 0, 0, 0, 0, 0, 1, 1, 0, 1.0])
+    first = np.zeros(12, dtype=bool)
+    first[[0, 6]] = True
+    np.testing.assert_allclose(rest_before(t, at_rest(v), first), [0, 0, .1, .2, .3, .4, 0, .1, .1, .1, 0, 0],
+                               atol=1e-12)
+    # the same motion as one record and as two segments split inside the third rest: the
+    # starts whose rest opened the record or a segment are left out, and the rest is one fewer
+    rests = np.random.default_rng(4).uniform(0.2, 2.0, 30)
+    c, r, mask = _moves(rests, lambda s: 0.05 * s)
+    whole = rest_memory(c, r, mask)["starts"]
+    cut = int(np.searchsorted(c.t, rests[0] + 0.6 + rests[1] + 0.6 + 0.5 * rests[2]))
+    c.grid_segments = [(0, cut), (cut, len(c.t))]
+    assert rest_memory(c, r, mask)["starts"] == whole - 1 == 28
+
+
 def test_a_breakaway_that_grows_with_the_rest_is_found_and_one_that_does_not_is_not():
     rests = np.random.default_rng(1).uniform(0.2, 2.0, 30)
     c, r, mask = _moves(rests, lambda s: 0.05 * s)
@@ -55,9 +72,9 @@ def test_a_breakaway_that_grows_with_the_rest_is_found_and_one_that_does_not_is_
 def test_alike_rests_and_too_few_starts_are_not_tested():
     c, r, mask = _moves(np.full(30, 0.5), lambda s: 0.05 * s)
     assert rest_memory(c, r, mask)["t"] == 0.0          # one repeated motion: nothing varies
-    c, r, mask = _moves(np.linspace(0.2, 2.0, 5), lambda s: 0.05 * s)
+    c, r, mask = _moves(np.linspace(0.2, 2.0, 6), lambda s: 0.05 * s)
     p = rest_memory(c, r, mask)
-    assert p["starts"] == 5 and p["t"] == 0.0
+    assert p["starts"] == 5 and p["t"] == 0.0           # the rest opening the record is not one
     # a direction's own level is not taken for the rest's when the rests differ by direction
     rests = np.where(np.arange(30) % 2 == 0, 1.5, 0.3) + np.random.default_rng(3).uniform(0, 0.1, 30)
     k = iter(range(30))
