@@ -27,15 +27,6 @@ from bench.fitting import Param
 
 DEFAULT_DAMPING = 0.05    # lightly damped: harmonic drives and steel shafts, 0.02-0.1
 MIN_DAMPING = 0.005       # the fit's floor
-# A credible gear spring carries a load: on tuning seeds 1500-1502 real resonances (3-23 Hz,
-# damping 0.04-0.12) were fitted with 30-63 % of the joint's inertia beyond the spring and
-# their damping; a rotary motor's coarse encoder (test seed 6313) was "explained" by a 34 Hz
-# line with 0.2 % of the inertia and the damping pinned at the floor, a narrow line fitted to
-# quantisation noise.  On 2026-11-26 (tuning seeds 1601-1652, all six joints, both
-# simulators) true springs with 20-60 % of the inertia beyond them were fitted with exactly
-# that share; friction rising with the carried torque on the linear stage (outside physics,
-# 17-20 % of Fc, seed 1104) was "explained" by a 3.3 Hz line carrying 1.2 %.
-MIN_LOAD_SHARE = 0.05
 # ...and rings: above a damping ratio of 0.3 the resonance peak is below 1.75x (1 / (2 zeta
 # sqrt(1 - zeta^2))), a smooth low-pass that shapes any cycle-locked mismatch.  A saturating
 # torque constant on the linear stage (tuning seeds 1001, 1013) was "explained" by 3.7-4 Hz
@@ -93,7 +84,7 @@ class JointFlexibility(GearEffect):
         return super().fd_step(key, ctx)
 
     def credible(self, values, ctx):
-        # a damping at the fit's floor is a narrow line fitted to noise (see MIN_LOAD_SHARE),
+        # a damping at the fit's floor is a narrow line fitted to noise (see gear.MIN_LOAD_SHARE),
         # unless friction beyond the spring damps it instead of its own: j1's 12 Hz spring
         # with 40 % of the friction beyond it fitted 0.005 (independent simulator, tuning
         # seed 1941); with 30 % beyond a 12 Hz spring it fitted 0.026-0.037 (seed 1986)
@@ -103,7 +94,6 @@ class JointFlexibility(GearEffect):
         # of the friction beyond it, independent simulator, tuning seed 1954)
         return (slowest(ctx.data.c) <= values["flex_frequency"] <= ctx.data.c.cutoff
                 and floor_ok and values["flex_damping"] <= MAX_DAMPING
-                and values["flex_load"] >= MIN_LOAD_SHARE * ctx.inertia
                 and self.gear_credible(values, ctx))
 
     def apply(self, values, extra, ev):

@@ -118,3 +118,18 @@ def test_a_load_against_a_stiff_friction_law_converges_at_any_sub_step():
                             for n in (7, 64))
     assert np.max(np.abs(q7 - q64)) < 1e-6
     assert np.max(np.abs(F7 - F64)) < 1e-3 * np.std(F64)
+
+
+def test_a_gear_is_credited_only_with_a_load_that_matters():
+    """A backlash or a spring whose load is a sliver of the joint's inertia is a flexible
+    shape, not a gear: frictional lag on the rotary motor was fitted as 145 mrad of play
+    before 0.7 % of it (bench.effects.gear.MIN_LOAD_SHARE)."""
+    from types import SimpleNamespace
+    from bench.effects.backlash import Backlash
+    from bench.effects.joint_flexibility import JointFlexibility
+    ctx = SimpleNamespace(inertia=2.0)
+    for effect in (Backlash(), JointFlexibility()):
+        key = effect.load_key
+        assert not effect.gear_credible({key: 0.007 * 2.0}, ctx)
+        assert effect.gear_credible({key: 0.3 * 2.0}, ctx)
+        assert not effect.gear_credible({key: 1.2 * 2.0}, ctx)
