@@ -49,21 +49,22 @@ def at_rest(v: np.ndarray) -> np.ndarray:
     return np.abs(v) < REST_SPEED * max(float(np.percentile(np.abs(v), 95)), 1e-300)
 
 
-def _began(rest: np.ndarray, first: np.ndarray | None) -> np.ndarray:
-    """Per sample, where the last rest began (a segment's first sample opens a rest afresh)."""
+def _rests(t: np.ndarray, rest: np.ndarray, first: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample, where the last rest began (a segment's first sample opens a rest afresh)
+    and how long it lasted (``rest_before``)."""
     start = np.concatenate(([True], rest[1:] & ~rest[:-1]))
     if first is not None:
         start = start | first
-    return np.maximum.accumulate(np.where(rest & start, np.arange(len(rest)), 0))
+    began = np.maximum.accumulate(np.where(rest & start, np.arange(len(rest)), 0))
+    last_rest = np.maximum.accumulate(np.where(rest, np.arange(len(t)), 0))
+    return began, t[last_rest] - t[began]
 
 
 def rest_before(t: np.ndarray, rest: np.ndarray, first: np.ndarray | None = None) -> np.ndarray:
     """How long the joint rested before it last started to move (at rest: how long so far);
     ``rest``: ``at_rest``'s mask; ``first``: the samples that open a segment (a record split
     at its gaps), where a rest is counted afresh: the time across a gap is not a rest seen."""
-    began = _began(rest, first)
-    last_rest = np.maximum.accumulate(np.where(rest, np.arange(len(t)), 0))
-    return t[last_rest] - t[began]
+    return _rests(t, rest, first)[1]
 
 
 def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -78,9 +79,8 @@ def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, n
     first = np.zeros(len(c.t), dtype=bool)
     for k, (a, b) in enumerate(getattr(c, "grid_segments", [(0, len(c.t))])):
         seg[a:b], first[a] = k, True
-    before = rest_before(c.t, rest, first)
+    began, before = _rests(c.t, rest, first)
     opened = np.maximum.accumulate(np.where(first, np.arange(len(c.t)), 0))   # its segment's first
-    began = _began(rest, first)
     starts = np.nonzero(rest[:-1] & ~rest[1:])[0] + 1
     ends = np.nonzero(np.abs(c.v) >= SLIDING * top)[0]
     rows = []
