@@ -387,13 +387,6 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
             res = _fit_lugre(data, est, M, other_basins=True)
     p = res.lugre()
     identifiable, warnings = judged(res, est["v_max"])
-    # the Coulomb level scales every verdict (an effect's size, what is left); eq. 8's line
-    # reads it at the top speeds, which a velocity-step sweep holds for two short passes at one
-    # speed, sgn v and v then one column: 0.9 N·m for j4's 564 under a warm-up (PID-tracked
-    # sweep, independent simulator, tuning seed 1374), "370 % of the Coulomb level" left.  Where
-    # the whole record's fit determines Fc at over twice the line's, the fit's is the scale
-    if identifiable.get("Fc") and p.Fc > 2.0 * data.coulomb:
-        data.coulomb = float(p.Fc)
     fitq = {"rms_error": res.rms, "nrmse": res.nrmse, "fit_percent": 100.0 * (1.0 - res.nrmse),
             "samples": data.n, "effective_sample_fraction": res.n_eff_fraction,
             "cutoff_hz": data.c.cutoff, "velocity_band_hz": data.c.velocity_band,

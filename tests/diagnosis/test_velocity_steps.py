@@ -9,9 +9,8 @@ rotary motor's Fc +4 %).  Library effects 1360-1391 (j1, j2, j4, linear): gravit
 position-dependent friction, direction asymmetry, an offset and a current-loop lag named first
 on 24 of 24; a warm-up on 2 of 4 (slowest first, the oil warms while the viscous term is small:
 README known limits); Armstrong's Gaussian dip on 3 of 4.  j4's warm-up (1374) read the
-Coulomb level as 0.9 N·m (564) off the two top passes and flagged "370 % of Fc" left
-(``bench.identify``: the fit's Fc is the scale now).  Fresh seeds here; j3 and the rotary
-motor, not tuned on, among them."""
+verdict's Coulomb scale as 0.9 N·m (564) off the two top passes (README known limits).  Fresh
+seeds here; j3 and the rotary motor, not tuned on, among them."""
 import numpy as np
 
 from bench.analysis import analyze_record
