@@ -44,9 +44,11 @@ MIN_SPREAD = 0.2
 MIN_REST = 5
 
 
-def at_rest(v: np.ndarray) -> np.ndarray:
-    """Samples at rest (``REST_SPEED`` of the top speed)."""
-    return np.abs(v) < REST_SPEED * max(float(np.percentile(np.abs(v), 95)), 1e-300)
+def at_rest(v: np.ndarray, top: float | None = None) -> np.ndarray:
+    """Samples at rest (``REST_SPEED`` of the top speed, the 95th percentile of |v| unless given)."""
+    if top is None:
+        top = float(np.percentile(np.abs(v), 95))
+    return np.abs(v) < REST_SPEED * max(top, 1e-300)
 
 
 def _rests(t: np.ndarray, rest: np.ndarray, first: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -74,13 +76,10 @@ def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, n
     top = float(np.percentile(np.abs(c.v), 95))
     if not top > 0:
         return np.zeros(0), np.zeros(0), np.zeros(0)
-    rest = at_rest(c.v)
-    seg = np.zeros(len(c.t), dtype=np.int64)
+    rest = at_rest(c.v, top)
     first = np.zeros(len(c.t), dtype=bool)
-    for k, (a, b) in enumerate(getattr(c, "grid_segments", [(0, len(c.t))])):
-        seg[a:b], first[a] = k, True
+    first[[a for a, _ in getattr(c, "grid_segments", [(0, len(c.t))])]] = True
     began, before = _rests(c.t, rest, first)
-    opened = np.maximum.accumulate(np.where(first, np.arange(len(c.t)), 0))   # its segment's first
     starts = np.nonzero(rest[:-1] & ~rest[1:])[0] + 1
     ends = np.nonzero(np.abs(c.v) >= SLIDING * top)[0]
     rows = []
@@ -89,9 +88,9 @@ def breakaways(c, residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, n
         if k == len(ends):
             break
         w = np.arange(s, ends[k] + 1)
-        if rest[w].any() or not mask[w].all() or seg[w[-1]] != seg[s - 1]:
+        if rest[w].any() or not mask[w].all() or first[w].any():
             continue                # stopped again, not scored, or across a gap
-        if began[s - 1] == opened[s - 1] or before[s - 1] < MIN_REST * (c.t[s] - c.t[s - 1]):
+        if first[began[s - 1]] or before[s - 1] < MIN_REST * (c.t[s] - c.t[s - 1]):
             continue                # a rest of unknown length, or too short to tell
         d = np.sign(np.mean(c.v[w]))
         rows.append((before[s - 1], d, float(np.mean(residual[w]) * d)))
