@@ -302,12 +302,14 @@ def velocity_steps(travel: float, levels, dt: float = 1e-3, ramp: float = 0.15,
     """The industrial friction-velocity map experiment's reference (positions per ``dt``):
     back and forth over ``travel`` once at each speed of ``levels`` (slowest first), at constant
     speed between smooth ramps of ``ramp`` s, holding ``dwell`` s at each end."""
+    def shape(x):       # a raised-cosine ramp from 0 to 1
+        return 0.5 - 0.5 * np.cos(np.pi * np.clip(x, 0.0, 1.0))
+
     out, pos = [np.full(int(dwell / dt), -0.5 * travel)], -0.5 * travel
     for v in levels:
         for d in (1.0, -1.0):
             T = travel / v + ramp
             s = np.arange(1, int(T / dt) + 1) * dt
-            shape = lambda x: 0.5 - 0.5 * np.cos(np.pi * np.clip(x, 0.0, 1.0))
             speed = v * np.minimum(shape(s / ramp), shape((T - s) / ramp))
             seg = pos + d * np.cumsum(speed) * dt
             out += [seg, np.full(int(dwell / dt), seg[-1])]
