@@ -315,3 +315,25 @@ def velocity_steps(travel: float, levels, dt: float = 1e-3, ramp: float = 0.15,
             out += [seg, np.full(int(dwell / dt), seg[-1])]
             pos = seg[-1]
     return np.concatenate(out)
+
+
+def fourier_trajectory(travel: float, top_speed: float, duration: float, rng, harmonics: int = 5,
+                       dt: float = 1e-3) -> tuple[np.ndarray, float]:
+    """A robot-identification excitation trajectory (Swevers, Ganseman et al. 1997, the
+    standard for rigid-body identification): a finite Fourier series of ``harmonics``
+    harmonics with random coefficients, periodic, spanning ``travel`` about 0, its base
+    frequency set so that the top speed is ``top_speed``; faded in from rest over a quarter
+    period.  Returns (positions per ``dt``, base frequency Hz)."""
+    k = np.arange(1, harmonics + 1)
+    a, b = rng.uniform(-1.0, 1.0, harmonics) / k, rng.uniform(-1.0, 1.0, harmonics) / k
+
+    def series(phase):          # the position at base-frequency phases ``phase`` (cycles)
+        ph = 2.0 * np.pi * np.outer(phase, k)
+        return np.sin(ph) @ a - np.cos(ph) @ b
+
+    one = series(np.arange(0.0, 1.0, 1e-4))          # one period at f0 = 1 Hz
+    centre, scale = 0.5 * (one.max() + one.min()), 0.5 * travel / (0.5 * np.ptp(one))
+    f0 = top_speed / (scale * np.abs(np.gradient(one, 1e-4)).max())
+    t = np.arange(int(round(duration / dt))) * dt
+    fade = 0.5 - 0.5 * np.cos(np.pi * np.clip(4.0 * f0 * t, 0.0, 1.0))
+    return fade * scale * (series(f0 * t) - centre), float(f0)
