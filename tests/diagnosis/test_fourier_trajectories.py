@@ -12,25 +12,17 @@ first on 18 of 18; an offset on 2 of 3 (j4's read as gravity: README known limit
 gravity).  Fresh seeds here; j3 and the rotary motor, not tuned on, among them."""
 import numpy as np
 
-from bench.analysis import analyze_record
-from independent_joint import fourier_trajectory, independent_record
-from tests.diagnosis.test_conditions import _within
+from independent_joint import fourier_trajectory
 from tests.diagnosis.test_independent_records import _travel
+from tests.diagnosis.tracked_logs import library_physics, tracked_row
 from tests.record_pool import map_records
 from virtual_drives.presets import PRESETS
 
 
 def _log(joint, seed, physics=None):
     spec = PRESETS[joint]
-    f = spec.friction
-    ref, _ = fourier_trajectory(_travel(spec), 6.0 / f.alpha, 40.0, np.random.default_rng([seed, 5]))
-    noise = dict(disturbance=0.01 * f.Fc) if seed % 2 else dict(torque_noise=0.02 * f.Fc)
-    rec, _ = independent_record(spec, duration=len(ref) * 1e-3, seed=seed, pd=(6.0, 0.0, 1.5),
-                                reference=ref, jitter=0.3, drop=0.005, physics=physics, **noise)
-    doc = analyze_record(rec).report()
-    return (joint, seed, physics, [d["effect"] for d in doc["diagnosis"] if d["significant"]],
-            doc["unexplained"]["structured"], _within(doc, spec),
-            {k: round(doc["parameters"][k] / getattr(f, k) - 1, 3) for k in ("Fc", "Fs", "sigma2")})
+    ref, _ = fourier_trajectory(_travel(spec), 6.0 / spec.friction.alpha, 40.0, np.random.default_rng([seed, 5]))
+    return tracked_row(spec, seed, ref, bool(seed % 2), physics)
 
 
 def test_clean_joints_on_fourier_trajectories_name_nothing_and_identify_the_map():
@@ -40,13 +32,7 @@ def test_clean_joints_on_fourier_trajectories_name_nothing_and_identify_the_map(
 
 
 def _library(joint, seed, kind):
-    spec = PRESETS[joint]
-    Fc, tr = spec.friction.Fc, _travel(spec)
-    physics = {"gravity": dict(mgl=0.1 * Fc, q0=0.7), "cogging": dict(detent=0.06 * Fc, detent_pitch=tr / 6, detent_h2=0.4),
-               "position_dependent_friction": dict(ripple=0.1, ripple_pitch=tr / 3.0),
-               "direction_asymmetry": dict(asym=0.12), "thermal_drift": dict(warm=0.3, warm_tau=15.0),
-               "torque_lag": dict(lag=0.004)}[kind]
-    return (kind,) + _log(joint, seed, physics)
+    return (kind,) + _log(joint, seed, library_physics(PRESETS[joint], kind))
 
 
 def test_library_effects_on_fourier_trajectories_are_named_first():

@@ -13,10 +13,9 @@ verdict's Coulomb scale as 0.9 N·m (564) off the two top passes (README known l
 seeds here; j3 and the rotary motor, not tuned on, among them."""
 import numpy as np
 
-from bench.analysis import analyze_record
-from independent_joint import independent_record, velocity_steps
-from tests.diagnosis.test_conditions import _within
+from independent_joint import velocity_steps
 from tests.diagnosis.test_independent_records import _travel
+from tests.diagnosis.tracked_logs import library_physics, tracked_row
 from tests.record_pool import map_records
 from virtual_drives.presets import PRESETS
 
@@ -28,14 +27,7 @@ def _sweep(joint, seed, condition, physics=None):
     levels = np.geomspace(0.15 / f.alpha, top, 8)
     while np.sum(2.0 * travel / levels) > 60.0:       # a minute's log: the slowest raised
         levels = np.geomspace(1.2 * levels[0], top, 8)
-    ref = velocity_steps(travel, levels)
-    noise = dict(disturbance=0.01 * f.Fc) if condition == "felt" else dict(torque_noise=0.02 * f.Fc)
-    rec, _ = independent_record(spec, duration=len(ref) * 1e-3, seed=seed, pd=(6.0, 0.0, 1.5),
-                                reference=ref, jitter=0.3, drop=0.005, physics=physics, **noise)
-    doc = analyze_record(rec).report()
-    return (joint, seed, physics, [d["effect"] for d in doc["diagnosis"] if d["significant"]],
-            doc["unexplained"]["structured"], _within(doc, spec),
-            {k: round(doc["parameters"][k] / getattr(f, k) - 1, 3) for k in ("Fc", "Fs", "sigma2")})
+    return tracked_row(spec, seed, velocity_steps(travel, levels), condition == "felt", physics)
 
 
 def test_clean_joints_on_velocity_steps_name_nothing_and_identify_the_map():
@@ -46,13 +38,7 @@ def test_clean_joints_on_velocity_steps_name_nothing_and_identify_the_map():
 
 
 def _library(joint, seed, kind):
-    spec = PRESETS[joint]
-    Fc, tr = spec.friction.Fc, _travel(spec)
-    physics = {"gravity": dict(mgl=0.1 * Fc, q0=0.7), "cogging": dict(detent=0.06 * Fc, detent_pitch=tr / 6, detent_h2=0.4),
-               "position_dependent_friction": dict(ripple=0.1, ripple_pitch=tr / 3.0),
-               "direction_asymmetry": dict(asym=0.12), "torque_offset": dict(constant=0.2 * Fc),
-               "torque_lag": dict(lag=0.004)}[kind]
-    row = _sweep(joint, seed, ("felt", "reading")[seed % 2], physics)
+    row = _sweep(joint, seed, ("felt", "reading")[seed % 2], library_physics(PRESETS[joint], kind))
     return (kind,) + row
 
 
