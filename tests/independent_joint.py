@@ -332,7 +332,7 @@ def fourier_trajectory(travel: float, top_speed: float, duration: float, rng, ha
         return np.sin(ph) @ a - np.cos(ph) @ b
 
     one = series(np.arange(0.0, 1.0, 1e-4))          # one period at f0 = 1 Hz
-    centre, scale = 0.5 * (one.max() + one.min()), 0.5 * travel / (0.5 * np.ptp(one))
+    centre, scale = 0.5 * (one.max() + one.min()), travel / np.ptp(one)
     f0 = top_speed / (scale * np.abs(np.gradient(one, 1e-4)).max())
     t = np.arange(int(round(duration / dt))) * dt
     fade = 0.5 - 0.5 * np.cos(np.pi * np.clip(4.0 * f0 * t, 0.0, 1.0))
