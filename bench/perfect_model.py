@@ -148,7 +148,7 @@ def through_logger(layout, rec: Record, q_true: np.ndarray, friction: np.ndarray
     raw = []
     for i, (a, b) in enumerate(rec.segment_bounds()):
         ra, rb = layout.ranges[i]
-        ts, grid = layout.t[ra:rb], rec.t[a:b]
+        ts, grid = layout.t[ra:rb] - layout.t[0], rec.t[a:b] - layout.t[0]   # since the start (Unix times)
         if b - a > 3:
             spline = CubicSpline(grid, q_true[a:b])
             q_raw, acc = spline(ts), spline(ts, 2)

@@ -144,16 +144,15 @@ class Layout:
     held: bool
     tau: np.ndarray | None = None      # the logged torque (its reading's dither, bench.perfect_model)
 
-    def grid(self, i: int) -> np.ndarray:
-        a, b = self.ranges[i]
-        ts = self.t[a:b]
-        return ts[0] + self.h * np.arange(_grid_length(ts, self.h))
-
     def resample(self, i: int, q: np.ndarray, tau: np.ndarray, qd: np.ndarray | None = None) -> dict:
-        """Segment ``i``'s raw samples (q, tau, qd at ``t[a:b]``) on its grid."""
+        """Segment ``i``'s raw samples (q, tau, qd at ``t[a:b]``) on its grid.  Interpolated in
+        time since the record's first sample: a Unix time's grid points (1.7e9 s) round to
+        0.24 us, steps that differ by 2e-4 of a millisecond's, which twice differentiated is
+        torque noise of 1.6 % of Fc on j2 (a 40 s PC-logger log, tuning seed 1111)."""
         a, b = self.ranges[i]
-        ts, grid = self.t[a:b], self.grid(i)
-        piece = {"t": grid, "q": PchipInterpolator(ts, q)(grid)}
+        t0 = self.t[0]
+        ts, grid = self.t[a:b] - t0, (self.t[a] - t0) + self.h * np.arange(_grid_length(self.t[a:b], self.h))
+        piece = {"t": t0 + grid, "q": PchipInterpolator(ts, q)(grid)}
         if self.held:
             piece["tau"] = tau[np.searchsorted(ts, grid, side="right") - 1]
         else:
