@@ -100,7 +100,7 @@ def predict(data: FitData, values: dict, appliers: list[Applier] = ()) -> np.nda
         # the joint felt tau(t - lag), the record says tau(t): the estimate tau - M qdd carries
         # the difference (the filters are linear and time-invariant, so delay the filtered tau)
         # (in time since the record's start: a Unix time's 0.24 us rounding quantises the lag)
-        t = c.t - c.t_full[0]
+        t = c.t_since_start
         out = out + c.tau - np.interp(t - extra["torque_lag"], t, c.tau)
     if data.load_encoder and extra["backlash"] > 0 and extra["motor_inertia"] > 0:
         # backlash seen from the load: the motor leads through the gap (bench.load_side.gap_slip);

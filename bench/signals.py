@@ -60,6 +60,12 @@ class Conditioned:
             self.segments = [(0, len(self.t_full))]
 
     @cached_property
+    def t_since_start(self) -> np.ndarray:
+        """The grid's times since the record's first sample: a lag subtracted there keeps its
+        precision when the record is stamped in Unix time (0.24 us at 1.7e9 s)."""
+        return self.t - self.t_full[0]
+
+    @cached_property
     def sliding_speed(self) -> float:
         """A speed the joint only reaches sliding: ``SLIDING`` of the top speed."""
         return SLIDING * float(np.percentile(np.abs(self.v), 99.5))
