@@ -14,6 +14,7 @@ import numpy as np
 
 from bench import inertia_estimate, plots
 from bench.checkpoint import checkpoint
+from bench.coarse_time import spread_stamps
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose
 from bench.pruning import drop_absorbers
 from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
@@ -116,6 +117,8 @@ class Analysis:
         resampling = dict(r.get("resampling", {}))
         if "empty_rows" in r:    # rows with an empty, NaN or infinite cell (bench.readers)
             resampling["empty_rows_dropped"] = r["empty_rows"]
+        if "stamps_spread" in r:  # a clock coarser than the samples (bench.coarse_time)
+            resampling["timestamps_spread"] = r["stamps_spread"]
         if r.get("glitches"):    # position samples off their neighbours (bench.glitches)
             resampling["position_glitches_mended"] = r["glitches"]
         if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
@@ -187,6 +190,10 @@ def analyze_record(rec: Record, inertia: float | str | None = None, add: list[st
 
 def _ready(rec: Record, inertia, name: str, cutoff: float | None) -> Record:
     """The record checked, its glitches mended and on its grid, as a file would be read."""
+    if "raw_t" not in rec.reading:            # built in memory: a coarse clock as a file's
+        spread = spread_stamps(rec)
+        if spread:
+            rec.reading["stamps_spread"] = spread
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
     if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
         rec = _glitches_mended(rec)

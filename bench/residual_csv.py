@@ -64,8 +64,10 @@ def write_residuals(analysis, path: str | Path) -> Path:
     ticks = rec.reading.get("raw_ticks")
     if ticks is not None and len(ticks) == len(table["t"]):
         t_col, t_fmt = ticks, "%d"
-    else:
-        t_col = table["t"] / rec.reading.get("units", {}).get("time", {}).get("factor", 1.0)
+    else:   # a clock coarser than the samples: its stamps, the values at the spread times
+        stamped = rec.reading.get("stamps_t")
+        t_si = stamped if stamped is not None and len(stamped) == len(table["t"]) else table["t"]
+        t_col = t_si / rec.reading.get("units", {}).get("time", {}).get("factor", 1.0)
         t_fmt = "%.16g"      # 16 digits: epoch seconds with microseconds survive
     path = Path(path)
     with open(path, "w") as fh:
