@@ -4,6 +4,7 @@ JSON contract, the PNG plots and a self-contained HTML report."""
 from __future__ import annotations
 
 import base64
+import copy
 import html
 import math
 from contextlib import contextmanager
@@ -191,9 +192,11 @@ def analyze_record(rec: Record, inertia: float | str | None = None, add: list[st
 def _ready(rec: Record, inertia, name: str, cutoff: float | None) -> Record:
     """The record checked, its glitches mended and on its grid, as a file would be read."""
     if "raw_t" not in rec.reading:            # built in memory: a coarse clock as a file's
-        spread = spread_stamps(rec)
+        mine = copy.copy(rec)                  # the caller's record keeps its times
+        spread = spread_stamps(mine)
         if spread:
-            rec.reading["stamps_spread"] = spread
+            rec = mine
+            rec.reading = dict(rec.reading, stamps_spread=spread)
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
     if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
         rec = _glitches_mended(rec)
