@@ -71,8 +71,10 @@ def spread_stamps(rec: Record) -> dict | None:
     typical = float(np.median(counts))
     within = (np.arange(len(t)) - np.repeat(starts, counts)).astype(float)
     # the log starts and ends mid-quantum: its first stamp holds the quantum's last samples,
-    # its last stamp the first ones, at the typical step
-    step[0] = step[-1] = quantum / typical
+    # its last stamp the first ones, at the typical step (a first stamp fuller than typical
+    # keeps to its quantum, not running into the next stamp's times)
+    step[0] = min(quantum / typical, step[0])
+    step[-1] = quantum / typical
     lead = max(typical - counts[0], 0.0)
     within[:counts[0]] += lead
     spread = stamps.repeat(counts) + step.repeat(counts) * within

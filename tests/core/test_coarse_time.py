@@ -26,6 +26,10 @@ def test_a_truncating_clock_gives_back_the_sample_times_up_to_one_shift():
     assert done["samples_per_stamp"] == 10 and abs(done["quantum"] - 0.01) < 1e-12, done
     shift = rec.t - true
     assert np.ptp(shift) < 1e-9 and abs(shift[0]) < 0.01, (shift.min(), shift.max())
+    # a first stamp fuller than the others stays inside its quantum: time keeps increasing
+    full = Record(t=np.concatenate([np.zeros(13), np.repeat(0.01 * np.arange(1, 300), 10)]),
+                  tau=np.zeros(3003), q=np.zeros(3003))
+    assert spread_stamps(full) and np.diff(full.t).min() > 0 and full.t[12] < 0.01
     # a log writing a time twice now and then keeps its duplicates for bench.resample to drop
     few = Record(t=np.insert(true, [5, 900], true[[5, 900]]), tau=np.zeros(3002), q=np.zeros(3002))
     assert spread_stamps(few) is None and np.array_equal(few.t, np.insert(true, [5, 900], true[[5, 900]]))
