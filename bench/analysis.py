@@ -4,7 +4,6 @@ JSON contract, the PNG plots and a self-contained HTML report."""
 from __future__ import annotations
 
 import base64
-import copy
 import html
 import math
 from contextlib import contextmanager
@@ -15,7 +14,7 @@ import numpy as np
 
 from bench import inertia_estimate, plots
 from bench.checkpoint import checkpoint
-from bench.coarse_time import spread_stamps
+from bench.coarse_time import spread
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose
 from bench.pruning import drop_absorbers
 from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
@@ -192,11 +191,7 @@ def analyze_record(rec: Record, inertia: float | str | None = None, add: list[st
 def _ready(rec: Record, inertia, name: str, cutoff: float | None) -> Record:
     """The record checked, its glitches mended and on its grid, as a file would be read."""
     if "raw_t" not in rec.reading:            # built in memory: a coarse clock as a file's
-        mine = copy.copy(rec)                  # the caller's record keeps its times
-        spread = spread_stamps(mine)
-        if spread:
-            rec = mine
-            rec.reading = dict(rec.reading, stamps_spread=spread)
+        rec = spread(rec)                      # (a copy: the caller's record keeps its times)
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
     if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
         rec = _glitches_mended(rec)

@@ -12,6 +12,8 @@ one twice) are duplicates still, dropped by ``bench.resample``.
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
@@ -82,3 +84,15 @@ def spread_stamps(rec: Record) -> dict | None:
     rec.t = stamps[0] + _evened(spread - stamps[0], starts, stamps, quantum, quantum / typical,
                                 int(round(SMOOTH_STAMPS * typical)))
     return {"quantum": quantum, "samples_per_stamp": typical, "stamps": int(len(starts))}
+
+
+def spread(rec: Record) -> Record:
+    """``rec``, or a copy with its times spread where its stamps are coarser than its samples
+    (``spread_stamps``); the copy's ``reading`` says what was done (``stamps_spread``) and
+    keeps the stamps as written (``stamps_t``: --residuals writes them)."""
+    out = copy.copy(rec)
+    done = spread_stamps(out)
+    if not done:
+        return rec
+    out.reading = dict(rec.reading, stamps_spread=done, stamps_t=np.array(rec.t, dtype=float))
+    return out

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from bench import header_units
-from bench.coarse_time import spread_stamps
+from bench.coarse_time import spread
 from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
@@ -125,11 +125,7 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
         rec.reading["turns_unwrapped"] = wraps
     if span is not None:
         cut(rec, span, name)
-    stamps = np.array(rec.t, dtype=float)
-    spread = spread_stamps(rec)        # a clock coarser than the samples (bench.coarse_time)
-    if spread:
-        rec.reading["stamps_spread"] = spread
-        rec.reading["stamps_t"] = stamps      # --residuals writes the file's own stamps
+    rec = spread(rec)                  # a clock coarser than the samples (bench.coarse_time)
     # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
     # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)

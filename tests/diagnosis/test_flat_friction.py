@@ -17,6 +17,12 @@ from tests.diagnosis.test_independent_records import _within
 from tests.diagnosis.tracked_logs import library_physics
 from virtual_drives.presets import PRESETS
 
+def _flat(joint: str):
+    """``joint``'s preset with its static friction at its Coulomb level."""
+    spec = PRESETS[joint]
+    return dataclasses.replace(spec, friction=dataclasses.replace(spec.friction, Fs=spec.friction.Fc))
+
+
 CASES = [(j, 9700 + i, how) for i, (j, how) in enumerate(
     [(j, h) for h in ("sine", "pd") for j in PRESETS])]
 
@@ -26,9 +32,8 @@ def test_a_joint_without_a_stribeck_dip_gets_nothing_named_and_no_made_up_value(
     """A felt disturbance of 1 % of Fc on a jittered lossy logger; under the sine test or a
     6 Hz PID tracking a sine: nothing named, nothing left, every value more than 5 % off
     reported not identifiable, and the friction level (Fc or Fs) determined and right."""
-    spec = PRESETS[joint]
-    f = dataclasses.replace(spec.friction, Fs=spec.friction.Fc)
-    spec = dataclasses.replace(spec, friction=f)
+    spec = _flat(joint)
+    f = spec.friction
     kw = dict(pd=(6.0, 0.05 if joint == "linear" else 0.3, 1.5)) if how == "pd" else {}
     rec, _ = independent_record(spec, duration=20.0, seed=seed, disturbance=0.01 * f.Fc,
                                 jitter=0.3, drop=0.005, **kw)
@@ -50,9 +55,8 @@ def test_a_library_effect_on_a_joint_without_a_stribeck_dip_is_named(joint, seed
     """The degenerate dip does not hide a library effect beside it (sine test, the same
     logger; tuning seeds 1560-1573: 12 of 14 named, as on the same seeds with the dip -- a
     ripple on j2 flagged unnamed, the linear stage's gravity told as an offset, both ways)."""
-    spec = PRESETS[joint]
-    f = dataclasses.replace(spec.friction, Fs=spec.friction.Fc)
-    spec = dataclasses.replace(spec, friction=f)
+    spec = _flat(joint)
+    f = spec.friction
     rec, _ = independent_record(spec, duration=20.0, seed=seed, disturbance=0.01 * f.Fc,
                                 jitter=0.3, drop=0.005, physics=library_physics(spec, kind))
     doc = analyze_record(rec).report()
