@@ -32,6 +32,7 @@ from bench.residuals import breakdown
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
+from bench.slow_stream import filled_forward
 
 
 @dataclass
@@ -119,6 +120,8 @@ class Analysis:
             resampling["empty_rows_dropped"] = r["empty_rows"]
         if "stamps_spread" in r:  # a clock coarser than the samples (bench.coarse_time)
             resampling["timestamps_spread"] = r["stamps_spread"]
+        if "filled_forward" in r:  # a slower torque or position stream (bench.slow_stream)
+            resampling["filled_forward"] = r["filled_forward"]
         if r.get("glitches"):    # position samples off their neighbours (bench.glitches)
             resampling["position_glitches_mended"] = r["glitches"]
         if "segments" in resampling and len(c.segments) == len(resampling["segments"]):
@@ -191,7 +194,7 @@ def analyze_record(rec: Record, inertia: float | str | None = None, add: list[st
 def _ready(rec: Record, inertia, name: str, cutoff: float | None) -> Record:
     """The record checked, its glitches mended and on its grid, as a file would be read."""
     if "raw_t" not in rec.reading:            # built in memory: a coarse clock as a file's
-        rec = spread(rec)                      # (a copy: the caller's record keeps its times)
+        rec = filled_forward(spread(rec), inertia)   # (copies: the caller's record stays)
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
     if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
         rec = _glitches_mended(rec)

@@ -29,6 +29,7 @@ from bench.rows import cut, drop_empty_rows, parse_window
 from bench.turns import unwrap_turns
 from bench.units import to_si
 from bench.validate import record_magnitudes
+from bench.slow_stream import filled_forward
 
 ROLES = ("t", "tau", "q", "qd")
 META_UNITS = ("joint_type", "time_unit", "position_unit", "torque_unit", "torque_hold")
@@ -126,6 +127,7 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     if span is not None:
         cut(rec, span, name)
     rec = spread(rec)                  # a clock coarser than the samples (bench.coarse_time)
+    rec = filled_forward(rec)          # a slower stream filled forward (bench.slow_stream)
     # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
     # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)

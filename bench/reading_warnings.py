@@ -30,6 +30,12 @@ TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor 
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
 
+FILLED_FORWARD_WARNING = ("the {what} column repeats each reading for {rows:.3g} rows (a {rate:.4g} Hz "
+                          "stream filled forward onto a faster one's rows): {how}")
+HOW = {"readings, interpolated between": "interpolated between its readings for the analysis",
+       "a command held": ("read as a command the drive held that long, as written (the motion "
+                          "steps with it where it changes)")}
+
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
     """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque
@@ -49,6 +55,10 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(UNWRAPPED_WARNING.format(n=r["turns_unwrapped"]))
     if r.get("time_counter"):
         out.append(COUNTER_WARNING.format(**r["time_counter"]))
+    for col, ff in r.get("filled_forward", {}).items():
+        out.append(FILLED_FORWARD_WARNING.format(
+            what={"tau": "torque", "q": "position", "qd": "velocity"}[col], rows=ff["rows_per_reading"],
+            rate=ff["rate_hz"], how=HOW[ff["read_as"]]))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):

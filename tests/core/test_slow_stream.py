@@ -1,0 +1,111 @@
+"""A slower stream filled forward onto a faster one's rows (``bench.slow_stream``): a torque
+read at 100 Hz merged onto a 1 kHz encoder's rows (pandas' merge_asof, a ROS bag exported on
+the encoder's topic) repeats each reading for ten rows.  Read as written it sat up to 9 ms
+late and was told as physics (an inertia error named on 7 of 8 tuning records, a torque lag
+for a slow position stream); a drive's trace of a slower command it held looks the same and
+is right as written.  Fresh seeds 9723-9731 (tuning: 1620-1623, 1630-1653)."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bench.analysis import analyze_record
+from bench.records import Record
+from bench.slow_stream import forward_fill_interval
+from independent_joint import independent_record
+from virtual_drives.presets import PRESETS
+
+BENCH = [sys.executable, "-m", "bench.cli"]
+
+
+def _filled(x: np.ndarray, k: int) -> np.ndarray:
+    """``x`` read every ``k`` rows and filled forward."""
+    return x[(np.arange(len(x)) // k) * k]
+
+
+def test_a_stream_filled_forward_is_found_and_coarse_readings_are_not():
+    rng = np.random.default_rng(9723)
+    t = np.sort(1e-3 * np.arange(20000) + 3e-4 * rng.uniform(-1, 1, 20000))
+    smooth = 40.0 * np.sin(2 * np.pi * 0.7 * t) + 0.3 * rng.standard_normal(len(t))
+    interval, row = forward_fill_interval(t, _filled(smooth, 10))
+    assert abs(interval / 0.01 - 1) < 0.02 and abs(row / 1e-3 - 1) < 0.02
+    assert forward_fill_interval(t, _filled(smooth, 2)) is None        # half a row late: left
+    assert forward_fill_interval(t, smooth) is None
+    # a torque read in steps of 2 units (reading noise a tenth of a step): one size of change
+    assert forward_fill_interval(t, 2.0 * np.round((smooth - 0.27 * rng.standard_normal(len(t))) / 2.0)) is None
+    # a coarse encoder at a steady speed changes at a steady pace too, one count at a time
+    assert forward_fill_interval(t, 1e-3 * np.floor(0.1 * t / 1e-3)) is None
+    # a torque that stands still most of the record (long runs at no pace)
+    idle = np.where(np.sin(2 * np.pi * 0.2 * t) > 0.8, smooth, 0.0)
+    assert forward_fill_interval(t, idle) is None
+
+
+def _outcome(doc: dict, spec) -> tuple:
+    f = spec.friction
+    errors = {k: doc["parameters"][k] / getattr(f, k) - 1 for k in ("Fc", "Fs", "sigma2")}
+    return ([d["effect"] for d in doc["diagnosis"] if d["significant"]], doc["unexplained"]["structured"],
+            max(abs(e) for e in errors.values()), errors)
+
+
+@pytest.mark.parametrize("joint,seed,col,k", [("j3", 9724, "tau", 10), ("rotary", 9725, "tau", 4),
+                                              ("j1", 9726, "q", 5), ("linear", 9727, "tau", 10)])
+def test_a_slower_stream_filled_forward_is_read_between_its_readings(joint, seed, col, k):
+    """On the jittered lossy logger: nothing named, nothing left, Fc, Fs, sigma2 within 5 %,
+    and the report says which column was filled forward and how it was read."""
+    spec = PRESETS[joint]
+    rec, _ = independent_record(spec, duration=20.0, seed=seed, disturbance=0.01 * spec.friction.Fc,
+                                jitter=0.3, drop=0.005)
+    cols = {"tau": rec.tau, "q": rec.q}
+    cols[col] = _filled(cols[col], k)
+    doc = analyze_record(Record(t=rec.t, meta={"inertia": spec.inertia, "joint_type": spec.joint_type},
+                                **cols)).report()
+    named, left, worst, errors = _outcome(doc, spec)
+    assert not named and not left and worst < 0.05, (named, left, errors)
+    ff = doc["resampling"]["filled_forward"]
+    assert list(ff) == [col] and ff[col]["read_as"] == "readings, interpolated between", ff
+    assert abs(ff[col]["rows_per_reading"] / k - 1) < 0.05, ff
+    assert any("filled forward" in w for w in doc["warnings"]), doc["warnings"]
+
+
+@pytest.mark.parametrize("joint,seed", [("j2", 9728), ("j4", 9729)])
+def test_a_command_held_longer_than_a_row_stays_as_written(joint, seed):
+    """A drive's trace at 1 kHz of a 100 Hz torque command it held (the motion steps with
+    it): read as a command held, and nothing named, nothing left, within 5 %."""
+    spec = PRESETS[joint]
+    amplitude, hz = spec.excitation
+    t = 1e-3 * np.arange(20000)
+    rec, _ = independent_record(spec, duration=20.0, seed=seed, disturbance=0.01 * spec.friction.Fc,
+                                torque=amplitude * np.sin(2 * np.pi * hz * np.floor(t / 0.01) * 0.01),
+                                torque_noise=0.0, jitter=0.3, drop=0.005)
+    doc = analyze_record(Record(t=rec.t, tau=rec.tau, q=rec.q,
+                                meta={"inertia": spec.inertia, "joint_type": spec.joint_type})).report()
+    assert doc["resampling"]["filled_forward"]["tau"]["read_as"] == "a command held", doc["resampling"]
+    named, left, worst, errors = _outcome(doc, spec)
+    assert not named and not left and worst < 0.05, (named, left, errors)
+
+
+def test_a_logger_merging_a_slow_torque_stream_is_analysed_end_to_end(tmp_path):
+    """The file a robot's logger writes: other column names, no metadata lines, a 100 Hz
+    torque filled forward onto a 1 kHz encoder's uneven rows.  ``bench analyze`` with
+    --columns reads it between its readings and writes one residual row per file row."""
+    spec = PRESETS["j2"]
+    rec, _ = independent_record(spec, duration=20.0, seed=9730, disturbance=0.01 * spec.friction.Fc,
+                                jitter=0.3, drop=0.005)
+    tau = _filled(rec.tau, 10)
+    path, js, res = tmp_path / "merged.csv", tmp_path / "o.json", tmp_path / "res.csv"
+    path.write_text("stamp,joint_pos,joint_effort\n" + "".join(
+        f"{a:.6f},{c:.12g},{b:.6g}\n" for a, b, c in zip(rec.t, tau, rec.q)))
+    r = subprocess.run(BENCH + ["analyze", str(path), "--columns", "t=stamp,tau=joint_effort,q=joint_pos",
+                                "--inertia", str(spec.inertia), "--json", str(js), "--residuals", str(res)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "filled forward" in r.stdout + r.stderr
+    doc = json.loads(js.read_text())
+    named, left, worst, errors = _outcome(doc, spec)
+    assert not named and not left and worst < 0.05, (named, left, errors)
+    assert doc["resampling"]["filled_forward"]["tau"]["read_as"] == "readings, interpolated between"
+    table = np.genfromtxt(res, delimiter=",", names=True)
+    assert len(table) == len(rec.t)
+    np.testing.assert_allclose(table["t"], np.round(rec.t, 6), atol=1e-9)
