@@ -54,6 +54,9 @@ PACE_TOLERANCE = 1.0
 # ``torque_hold: zoh`` (``--torque-hold zoh``) says the column is the command as held.
 HELD_T = 6.0
 HELD_SHARE = 0.25
+# A stream slower than 20 Hz is not one a logger fills forward: a torque held that long is an
+# excitation's level (torque steps held for seconds), kept as written.
+MAX_INTERVAL = 0.05
 # fewer readings than this and the pace says nothing
 MIN_READINGS = 20
 
@@ -79,7 +82,7 @@ def forward_fill_interval(t: np.ndarray, x: np.ndarray) -> tuple[float, float] |
         return None
     gaps = np.diff(t[starts[1:]])       # the first run may have started before the log
     interval = float(np.median(gaps))
-    if interval < MIN_ROWS_PER_READING * row:
+    if not MIN_ROWS_PER_READING * row <= interval <= MAX_INTERVAL:
         return None
     whole = np.maximum(np.round(gaps / interval), 1.0)
     if np.median(np.abs(gaps - whole * interval)) > PACE_TOLERANCE * row:

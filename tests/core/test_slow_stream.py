@@ -40,6 +40,9 @@ def test_a_stream_filled_forward_is_found_and_coarse_readings_are_not():
     # a torque that stands still most of the record (long runs at no pace)
     idle = np.where(np.sin(2 * np.pi * 0.2 * t) > 0.8, smooth, 0.0)
     assert forward_fill_interval(t, idle) is None
+    # an excitation of torque levels, each held for half a second: a command, not a stream
+    assert forward_fill_interval(t, _filled(rng.uniform(-50, 50, len(t)), 500)) is None
+    assert forward_fill_interval(t, _filled(smooth, 40)) is not None    # a 25 Hz stream is
 
 
 def _outcome(doc: dict, spec) -> tuple:
