@@ -128,40 +128,46 @@ def _held_command(t: np.ndarray, q: np.ndarray, stair: np.ndarray, smooth: np.nd
 
 
 def filled_forward(rec: Record, inertia=None) -> Record:
-    """``rec``, or a copy whose forward-filled torque, position or velocity (``forward_fill_interval``)
-    is interpolated between its readings -- a torque only where it is not a held command
-    (``_held_command``); ``inertia``: the record's, 0 for a friction column.  The copy's
-    ``reading`` says what was found (``filled_forward``: per column, its rate and how it was
-    read)."""
-    out, found = rec, {}
-    for col in ("q", "qd", "tau"):
-        if getattr(out, col) is None:
-            continue
-        hit = forward_fill_interval(out.t, getattr(out, col))
+    """``rec``, or a copy whose forward-filled torque, position or velocity
+    (``forward_fill_interval``) is interpolated between its readings -- a torque only where it
+    is not a held command (``_held_command``); ``inertia``: the record's, 0 for a friction
+    column.  The copy's ``reading`` says what was found (``filled_forward``: per column, its
+    rate and how it was read)."""
+    t = np.asarray(rec.t, dtype=float)
+    steps = np.diff(t)
+    if len(t) < 2 * MIN_READINGS or np.any(steps < 0):
+        return rec          # time going back is an error bench.resample names
+    # a logger writing a time twice: its duplicates are dropped later (bench.resample keeps
+    # the first); here each takes its first's value
+    first = np.concatenate(([True], steps > 0))
+    owner = np.maximum.accumulate(np.where(first, np.arange(len(t)), 0))
+    tu = t[first]
+    cols = {c: np.asarray(getattr(rec, c), dtype=float)[first] for c in ("q", "qd", "tau")
+            if getattr(rec, c) is not None}
+    m = inertia if inertia is not None else rec.meta.get("inertia")
+    said = str(rec.meta.get("torque_hold", "auto")).lower() == "zoh"
+    found, new = {}, {}
+    for col, x in cols.items():
+        hit = forward_fill_interval(tu, x)
         if hit is None:
             continue
         interval, row = hit
-        x = np.asarray(getattr(out, col), dtype=float)
         starts = np.concatenate(([0], np.nonzero(np.diff(x) != 0)[0] + 1))
-        between = _between(np.asarray(out.t, dtype=float), x, starts, interval)
-        m = inertia if inertia is not None else rec.meta.get("inertia")
-        said = str(rec.meta.get("torque_hold", "auto")).lower() == "zoh"
+        between = _between(tu, x, starts, interval)
         held = (col == "tau" and _number(m) != 0.0
-                and (said or _held_command(np.asarray(out.t, dtype=float), np.asarray(out.q, dtype=float), x,
-                                  between, interval, m)))
+                and (said or _held_command(tu, new.get("q", cols["q"]), x, between, interval, m)))
         found[col] = {"rate_hz": 1.0 / interval, "rows_per_reading": interval / row,
                       "read_as": "a command held" if held else "readings, interpolated between"}
-        if held:
-            continue
-        if out is rec:
-            out = copy.copy(rec)
-            out.reading = dict(rec.reading)
-        setattr(out, col, between)
-    if found:
-        if out is rec:
-            out = copy.copy(rec)
-            out.reading = dict(rec.reading)
-        out.reading["filled_forward"] = found
+        if not held:
+            new[col] = between
+    if not found:
+        return rec
+    out = copy.copy(rec)
+    out.reading = dict(rec.reading, filled_forward=found)
+    for col, x in new.items():
+        full = np.empty(len(t))
+        full[first] = x
+        setattr(out, col, full[owner])
     return out
 
 

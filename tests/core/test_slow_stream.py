@@ -13,7 +13,7 @@ import pytest
 
 from bench.analysis import analyze_record
 from bench.records import Record
-from bench.slow_stream import forward_fill_interval
+from bench.slow_stream import filled_forward, forward_fill_interval
 from independent_joint import independent_record
 from virtual_drives.presets import PRESETS
 
@@ -43,6 +43,24 @@ def test_a_stream_filled_forward_is_found_and_coarse_readings_are_not():
     # an excitation of torque levels, each held for half a second: a command, not a stream
     assert forward_fill_interval(t, _filled(rng.uniform(-50, 50, len(t)), 500)) is None
     assert forward_fill_interval(t, _filled(smooth, 40)) is not None    # a 25 Hz stream is
+
+
+def test_readings_are_interpolated_between_and_a_time_written_twice_is_no_trouble():
+    """A 100 Hz torque filled forward onto 1 kHz rows stamped in whole milliseconds (times
+    written twice now and then): the rows between its readings are interpolated, on average over
+    five times closer to the torque than the staircase (duplicates move a reading a row), and
+    the record is a copy."""
+    t = np.round(np.sort(1e-3 * np.arange(6000) + 8e-4 * np.random.default_rng(9731).uniform(-1, 1, 6000)), 3)
+    torque = 40.0 * np.sin(2 * np.pi * 0.7 * t)
+    rec = Record(t=t, tau=_filled(torque, 10), q=np.sin(t), meta={"inertia": 1.0})
+    assert np.count_nonzero(np.diff(t) == 0) > 100
+    out = filled_forward(rec)
+    assert out is not rec and np.array_equal(rec.tau, _filled(torque, 10))
+    assert out.reading["filled_forward"]["tau"]["read_as"] == "readings, interpolated between"
+    inside = slice(20, -20)
+    assert np.abs(out.tau - torque)[inside].mean() < 0.2 * np.abs(rec.tau - torque)[inside].mean()
+    plain = Record(t=t, tau=torque, q=np.sin(t))
+    assert filled_forward(plain) is plain          # a torque read on every row: as it is
 
 
 def _outcome(doc: dict, spec) -> tuple:
