@@ -29,10 +29,10 @@ from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
+from bench.slow_stream import filled_forward
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
-from bench.slow_stream import filled_forward
 
 
 @dataclass

@@ -26,10 +26,10 @@ from bench.glitches import mend_glitches
 from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
+from bench.slow_stream import filled_forward
 from bench.turns import unwrap_turns
 from bench.units import to_si
 from bench.validate import record_magnitudes
-from bench.slow_stream import filled_forward
 
 ROLES = ("t", "tau", "q", "qd")
 META_UNITS = ("joint_type", "time_unit", "position_unit", "torque_unit", "torque_hold")

@@ -30,11 +30,11 @@ TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor 
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
 
-FILLED_FORWARD_WARNING = ("the {what} column repeats each reading for {rows:.3g} rows (a {rate:.4g} Hz "
-                          "stream filled forward onto a faster one's rows): {how}")
-HOW = {"readings, interpolated between": "interpolated between its readings for the analysis",
-       "a command held": ("read as a command the drive held that long, as written (the motion "
-                          "steps with it where it changes)")}
+FILLED_FORWARD_WARNING = "the {what} column changes only every {rows:.3g} rows, at {rate:.4g} Hz: {how}"
+HOW = {"readings, interpolated between": ("a slower stream filled forward onto a faster one's rows, "
+                                          "interpolated between its readings for the analysis"),
+       "a command held": ("a command the drive held that long (the motion steps with it where it "
+                          "changes), used as written")}
 
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:

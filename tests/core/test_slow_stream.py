@@ -103,6 +103,7 @@ def test_a_command_held_longer_than_a_row_stays_as_written(joint, seed):
     doc = analyze_record(Record(t=rec.t, tau=rec.tau, q=rec.q,
                                 meta={"inertia": spec.inertia, "joint_type": spec.joint_type})).report()
     assert doc["resampling"]["filled_forward"]["tau"]["read_as"] == "a command held", doc["resampling"]
+    assert any("held that long" in w for w in doc["warnings"]), doc["warnings"]
     named, left, worst, errors = _outcome(doc, spec)
     assert not named and not left and worst < 0.05, (named, left, errors)
 
