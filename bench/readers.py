@@ -26,7 +26,7 @@ from bench.glitches import mend_glitches
 from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
-from bench.slow_stream import filled_forward
+from bench.slow_stream import blank_between_readings, filled_forward
 from bench.turns import unwrap_turns
 from bench.units import to_si
 from bench.validate import record_magnitudes
@@ -116,7 +116,9 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
     header_units.apply(rec)
-    drop_empty_rows(rec, name)
+    if blank_between_readings(rec):    # a slower torque stream, empty between (bench.slow_stream)
+        rec.reading["torque_blank_between"] = True
+    drop_empty_rows(rec, name, spare=("tau",) if rec.reading.get("torque_blank_between") else ())
     counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
     if counter:
         rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}

@@ -23,12 +23,15 @@ def _keep(rec: Record, mask: np.ndarray) -> None:
         rec.reading["raw_ticks"] = rec.reading["raw_ticks"][mask]
 
 
-def drop_empty_rows(rec: Record, name: str) -> None:
+def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> None:
     """Rows with an empty, NaN or infinite cell in a mapped column are a logger's dropped
-    samples: taken out (counted in the report) and handled as uneven time and gaps are."""
+    samples: taken out (counted in the report) and handled as uneven time and gaps are.
+    ``spare``: columns whose empty cells stay (``bench.slow_stream`` fills them)."""
     cols = _columns(rec)
     ok = np.ones(len(rec.t), dtype=bool)
     for col in cols:
+        if col in spare:
+            continue
         ok &= np.isfinite(getattr(rec, col))
     if ok.all():
         return

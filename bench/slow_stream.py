@@ -61,10 +61,11 @@ MAX_INTERVAL = 0.05
 MIN_READINGS = 20
 
 
-def forward_fill_interval(t: np.ndarray, x: np.ndarray) -> tuple[float, float] | None:
+def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INTERVAL
+                          ) -> tuple[float, float] | None:
     """(the interval [s] at which ``x``'s readings arrive, the rows' step [s]) when they are
     filled forward onto rows at times ``t`` coming at least ``MIN_ROWS_PER_READING`` times as
-    often; else None."""
+    often, at most ``longest`` apart; else None."""
     t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
     if len(x) < 2 * MIN_READINGS:
         return None
@@ -82,7 +83,7 @@ def forward_fill_interval(t: np.ndarray, x: np.ndarray) -> tuple[float, float] |
         return None
     gaps = np.diff(t[starts[1:]])       # the first run may have started before the log
     interval = float(np.median(gaps))
-    if not MIN_ROWS_PER_READING * row <= interval <= MAX_INTERVAL:
+    if not MIN_ROWS_PER_READING * row <= interval <= longest:
         return None
     whole = np.maximum(np.round(gaps / interval), 1.0)
     if np.median(np.abs(gaps - whole * interval)) > PACE_TOLERANCE * row:
@@ -127,12 +128,66 @@ def _held_command(t: np.ndarray, q: np.ndarray, stair: np.ndarray, smooth: np.nd
     return t_stat >= HELD_T and (m is None or m <= 0 or c * m >= HELD_SHARE)
 
 
+def blank_between_readings(rec: Record) -> bool:
+    """Does the torque column hold a reading only every few rows, its cells between empty (a
+    slower stream merged onto a faster one's rows by an outer join)?  Judged on rows: the
+    time column may still be in the file's unit.  Such rows were dropped as lost samples, the
+    record analysed at the slow stream's rate: the rotary motor at 100 Hz, tuning seed 1651,
+    every value but sigma2 undetermined (Fc -67 %); filled forward and read between its
+    readings as a stream filled forward is (``filled_forward``), the same record's faster rows
+    are kept."""
+    others = np.isfinite(np.asarray(rec.t, dtype=float)) & np.isfinite(np.asarray(rec.q, dtype=float))
+    if rec.qd is not None:
+        others &= np.isfinite(np.asarray(rec.qd, dtype=float))
+    tau = np.asarray(rec.tau, dtype=float)[others]
+    seen = np.isfinite(tau)
+    if not seen.any() or np.count_nonzero(~seen) < REPEATED_SHARE * len(tau):
+        return False
+    tau = tau[np.argmax(seen):]
+    last = np.maximum.accumulate(np.where(np.isfinite(tau), np.arange(len(tau)), 0))
+    return forward_fill_interval(np.arange(len(tau), dtype=float), tau[last], longest=np.inf) is not None
+
+
+def _blanks_filled(rec: Record) -> Record:
+    """A copy of ``rec`` (read with ``blank_between_readings``) whose empty torque cells take
+    the reading before them where it is less than 2.5 intervals old and the readings keep a
+    stream's pace in seconds; the rows left empty are dropped as lost samples."""
+    out = copy.copy(rec)
+    out.reading = dict(rec.reading)
+    t, tau = np.asarray(rec.t, dtype=float), np.asarray(rec.tau, dtype=float)
+    seen = np.isfinite(tau)
+    filled = tau.copy()
+    if seen.any():
+        last = np.maximum.accumulate(np.where(seen, np.arange(len(t)), 0))
+        interval = float(np.median(np.diff(t[seen]))) if np.count_nonzero(seen) > 1 else 0.0
+        near = (np.arange(len(t)) >= np.argmax(seen)) & (t - t[last] <= 2.5 * interval)
+        filled = np.where(near, tau[last], np.nan)
+        ok = np.isfinite(filled)
+        if forward_fill_interval(t[ok], filled[ok]) is None:
+            filled = tau        # not a stream's pace: the empty cells are lost samples
+    out.tau = filled
+    keep = np.isfinite(filled)
+    if not keep.all():
+        dropped = int(np.count_nonzero(~keep))
+        for col in ("t", "tau", "q", "qd"):
+            if getattr(out, col) is not None:
+                setattr(out, col, np.asarray(getattr(out, col))[keep])
+        for key in ("raw_ticks", "stamps_t"):
+            if out.reading.get(key) is not None and len(out.reading[key]) == len(keep):
+                out.reading[key] = out.reading[key][keep]
+        out.reading["empty_rows"] = out.reading.get("empty_rows", 0) + dropped
+    return out
+
+
 def filled_forward(rec: Record, inertia=None) -> Record:
     """``rec``, or a copy whose forward-filled torque, position or velocity
     (``forward_fill_interval``) is interpolated between its readings -- a torque only where it
     is not a held command (``_held_command``); ``inertia``: the record's, 0 for a friction
     column.  The copy's ``reading`` says what was found (``filled_forward``: per column, its
-    rate and how it was read)."""
+    rate and how it was read).  A torque read only every few rows, the cells between empty
+    (``blank_between_readings``, said by ``reading["torque_blank_between"]``), is filled first."""
+    if rec.reading.get("torque_blank_between"):
+        rec = _blanks_filled(rec)
     t = np.asarray(rec.t, dtype=float)
     steps = np.diff(t)
     if len(t) < 2 * MIN_READINGS or np.any(steps < 0):
