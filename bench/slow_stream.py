@@ -4,8 +4,8 @@ A logger that puts a torque read at 100 Hz on the rows of a 1 kHz encoder (panda
 ``merge_asof``, a ROS bag exported on the encoder's topic, a spreadsheet's fill-down) repeats
 each reading for ten rows.  Read as it is, every torque sits up to 9 ms late against the
 positions, and the lag is told as physics: j2, tuning seed 1620, a 100 Hz torque on 1 kHz rows
-named an inertia 25 % too high with 86 % of the held-out error (inertia errors on 7 of 8 such
-records, 250 Hz among them).  Where a column repeats in runs that start at a steady pace, each
+named an inertia 25 % too high with 86 % of the held-out error (inertia errors on 8 of 10 tuning
+records with a reading every 4-10 rows, on five joints).  Where a column repeats in runs that start at a steady pace, each
 run's first row holds a reading (at most one row late) and the rows between are interpolated
 from the readings about them (a cubic spline: a linear one missed a sine's curvature by 11 %
 of the rotary motor's Fc, whose torque is 27x its friction).  Every row is kept: dropping the

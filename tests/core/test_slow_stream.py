@@ -1,7 +1,7 @@
 """A slower stream filled forward onto a faster one's rows (``bench.slow_stream``): a torque
 read at 100 Hz merged onto a 1 kHz encoder's rows (pandas' merge_asof, a ROS bag exported on
 the encoder's topic) repeats each reading for ten rows.  Read as written it sat up to 9 ms
-late and was told as physics (an inertia error named on 7 of 8 tuning records, a torque lag
+late and was told as physics (an inertia error named on 8 of 10 tuning records, a torque lag
 for a slow position stream); a drive's trace of a slower command it held looks the same and
 is right as written.  Fresh seeds 9723-9731 (tuning: 1620-1623, 1630-1653)."""
 import json
