@@ -36,7 +36,13 @@ def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> None
     if ok.all():
         return
     if not ok.any():
-        raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}")
+        alone = [c for c in cols if c != "t" and np.isfinite(getattr(rec, c)).any()]
+        hint = ""
+        if len(alone) > 1:    # each stream on its own rows: an outer join of two loggers
+            hint = (f" ({', '.join(alone)} each hold numbers, on different rows: two streams joined "
+                    f"on their own times; put the slower one on the faster one's rows, filled "
+                    f"forward (pandas merge_asof), and it is read between its readings)")
+        raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}{hint}")
     _keep(rec, ok)
     rec.reading["empty_rows"] = int((~ok).sum())
 

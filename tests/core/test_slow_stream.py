@@ -158,3 +158,16 @@ def test_a_torque_read_slower_with_empty_cells_between_keeps_the_faster_rows():
     dead[n // 5: 4 * n // 5] = np.nan
     for tau in (lost, dead):
         assert not blank_between_readings(Record(t=rec.t, tau=tau, q=rec.q))
+
+
+def test_two_streams_on_their_own_rows_are_refused_with_what_to_do():
+    """A join of two loggers on their own times (the torque's rows without a position, the
+    encoder's without a torque): no row holds both, and the one-line error says how to put
+    them together so that the torque is read between its readings."""
+    from bench.errors import InputError
+    rows = "".join(f"{i / 1000:.3f},{'' if i % 10 else 1.5 + i / 1e4},{'' if i % 10 == 0 else i / 1e5}\n"
+                   for i in range(400))
+    with pytest.raises(InputError) as err:
+        read_record(("t,tau,q\n" + rows).encode(), name="joined.csv", inertia=1.0)
+    assert "no row holds a number in every one of t, tau, q" in str(err.value)
+    assert "merge_asof" in str(err.value) and "\n" not in str(err.value)
