@@ -193,9 +193,12 @@ def analyze_record(rec: Record, inertia: float | str | None = None, add: list[st
 
 def _ready(rec: Record, inertia, name: str, cutoff: float | None) -> Record:
     """The record checked, its glitches mended and on its grid, as a file would be read."""
-    if "raw_t" not in rec.reading:            # built in memory: a coarse clock as a file's
-        rec = filled_forward(spread(rec), inertia)   # (copies: the caller's record stays)
+    memory = "raw_t" not in rec.reading       # built in memory: read as a file would be
+    if memory:
+        rec = spread(rec)                      # a coarse clock (a copy: the caller's record stays)
     record_magnitudes(rec, inertia, name)     # extreme numbers never reach the numerics
+    if memory:
+        rec = filled_forward(rec, inertia)     # a slower stream filled forward (a copy)
     if "glitches" not in rec.reading:          # built in memory (a drive's trace): screened as a file is
         rec = _glitches_mended(rec)
     rec = on_grid(rec, name)                   # a logger's timestamps, as a file would be read

@@ -26,7 +26,7 @@ from bench.glitches import mend_glitches
 from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
-from bench.slow_stream import blank_between_readings, filled_forward
+from bench.slow_stream import blank_between_readings, blanks_filled, filled_forward
 from bench.turns import unwrap_turns
 from bench.units import to_si
 from bench.validate import record_magnitudes
@@ -129,10 +129,11 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     if span is not None:
         cut(rec, span, name)
     rec = spread(rec)                  # a clock coarser than the samples (bench.coarse_time)
-    rec = filled_forward(rec)          # a slower stream filled forward (bench.slow_stream)
+    rec = blanks_filled(rec)           # a slower torque, empty between (bench.slow_stream)
     # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
     # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)
+    rec = filled_forward(rec)          # a slower stream filled forward (bench.slow_stream)
     rec.reading["glitches"] = mend_glitches(rec)   # an encoder's bad samples, once whole turns are out
     # for --residuals at the record's own times (converted back to the file's unit there)
     rec.reading["raw_t"] = np.array(rec.t, dtype=float)

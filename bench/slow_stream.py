@@ -148,10 +148,13 @@ def blank_between_readings(rec: Record) -> bool:
     return forward_fill_interval(np.arange(len(tau), dtype=float), tau[last], longest=np.inf) is not None
 
 
-def _blanks_filled(rec: Record) -> Record:
-    """A copy of ``rec`` (read with ``blank_between_readings``) whose empty torque cells take
-    the reading before them where it is less than 2.5 intervals old and the readings keep a
-    stream's pace in seconds; the rows left empty are dropped as lost samples."""
+def blanks_filled(rec: Record) -> Record:
+    """``rec``, or (where ``blank_between_readings`` found it, ``reading["torque_blank_between"]``)
+    a copy whose empty torque cells take the reading before them where it is less than 2.5
+    intervals old and the readings keep a stream's pace in seconds; the rows left empty are
+    dropped as lost samples.  ``filled_forward`` then reads the torque between its readings."""
+    if not rec.reading.get("torque_blank_between"):
+        return rec
     out = copy.copy(rec)
     out.reading = dict(rec.reading)
     t, tau = np.asarray(rec.t, dtype=float), np.asarray(rec.tau, dtype=float)
@@ -184,10 +187,7 @@ def filled_forward(rec: Record, inertia=None) -> Record:
     (``forward_fill_interval``) is interpolated between its readings -- a torque only where it
     is not a held command (``_held_command``); ``inertia``: the record's, 0 for a friction
     column.  The copy's ``reading`` says what was found (``filled_forward``: per column, its
-    rate and how it was read).  A torque read only every few rows, the cells between empty
-    (``blank_between_readings``, said by ``reading["torque_blank_between"]``), is filled first."""
-    if rec.reading.get("torque_blank_between"):
-        rec = _blanks_filled(rec)
+    rate and how it was read)."""
     t = np.asarray(rec.t, dtype=float)
     steps = np.diff(t)
     if len(t) < 2 * MIN_READINGS or np.any(steps < 0):
