@@ -15,12 +15,14 @@ def _columns(rec: Record) -> tuple[str, ...]:
     return ("t", "tau", "q") + (("qd",) if rec.qd is not None else ())
 
 
-def _keep(rec: Record, mask: np.ndarray) -> None:
-    """Keep the rows of ``mask`` in every column, the file's integer times among them."""
+def keep_rows(rec: Record, mask: np.ndarray) -> None:
+    """Keep the rows of ``mask`` in every column, the file's integer times and a coarse
+    clock's stamps as written (``bench.coarse_time``) among them."""
     for col in _columns(rec):
         setattr(rec, col, getattr(rec, col)[mask])
-    if rec.reading.get("raw_ticks") is not None:
-        rec.reading["raw_ticks"] = rec.reading["raw_ticks"][mask]
+    for key in ("raw_ticks", "stamps_t"):
+        if rec.reading.get(key) is not None:
+            rec.reading[key] = rec.reading[key][mask]
 
 
 def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> None:
@@ -43,7 +45,7 @@ def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> None
                     f"on their own times; put the slower one on the faster one's rows, filled "
                     f"forward (pandas merge_asof), and it is read between its readings)")
         raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}{hint}")
-    _keep(rec, ok)
+    keep_rows(rec, ok)
     rec.reading["empty_rows"] = int((~ok).sum())
 
 
@@ -70,5 +72,5 @@ def cut(rec: Record, span: tuple[float, float], name: str) -> None:
     if keep.sum() < 2:
         raise InputError(f"{name}: the window {span[0]:g}:{span[1]:g} s holds {int(keep.sum())} samples "
                          f"(the record lasts {rel[-1]:.6g} s)")
-    _keep(rec, keep)
+    keep_rows(rec, keep)
     rec.reading["window"] = {"start": span[0], "end": min(span[1], float(rel[-1])), "samples": int(keep.sum())}

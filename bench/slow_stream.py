@@ -30,6 +30,7 @@ from scipy import signal
 from scipy.interpolate import CubicSpline
 
 from bench.records import Record
+from bench.rows import keep_rows
 
 # At least half the rows repeat the torque before them (a reading every 2+ rows).
 REPEATED_SHARE = 0.5
@@ -60,6 +61,11 @@ HELD_SHARE = 0.25
 MAX_INTERVAL = 0.05
 # fewer readings than this and the pace says nothing
 MIN_READINGS = 20
+
+
+def _last_seen(seen: np.ndarray) -> np.ndarray:
+    """Per row, the index of the last row at or before it where ``seen`` holds (0 before any)."""
+    return np.maximum.accumulate(np.where(seen, np.arange(len(seen)), 0))
 
 
 def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INTERVAL
@@ -145,8 +151,8 @@ def blank_between_readings(rec: Record) -> bool:
     if not seen.any() or np.count_nonzero(~seen) < REPEATED_SHARE * len(tau):
         return False
     tau = tau[np.argmax(seen):]
-    last = np.maximum.accumulate(np.where(np.isfinite(tau), np.arange(len(tau)), 0))
-    return forward_fill_interval(np.arange(len(tau), dtype=float), tau[last], longest=np.inf) is not None
+    return forward_fill_interval(np.arange(len(tau), dtype=float), tau[_last_seen(np.isfinite(tau))],
+                                 longest=np.inf) is not None
 
 
 def blanks_filled(rec: Record) -> Record:
@@ -162,7 +168,7 @@ def blanks_filled(rec: Record) -> Record:
     seen = np.isfinite(tau)
     filled = tau.copy()
     if seen.any():
-        last = np.maximum.accumulate(np.where(seen, np.arange(len(t)), 0))
+        last = _last_seen(seen)
         interval = float(np.median(np.diff(t[seen]))) if np.count_nonzero(seen) > 1 else 0.0
         near = (np.arange(len(t)) >= np.argmax(seen)) & (t - t[last] <= 2.5 * interval)
         filled = np.where(near, tau[last], np.nan)
@@ -172,14 +178,8 @@ def blanks_filled(rec: Record) -> Record:
     out.tau = filled
     keep = np.isfinite(filled)
     if not keep.all():
-        dropped = int(np.count_nonzero(~keep))
-        for col in ("t", "tau", "q", "qd"):
-            if getattr(out, col) is not None:
-                setattr(out, col, np.asarray(getattr(out, col))[keep])
-        for key in ("raw_ticks", "stamps_t"):
-            if out.reading.get(key) is not None and len(out.reading[key]) == len(keep):
-                out.reading[key] = out.reading[key][keep]
-        out.reading["empty_rows"] = out.reading.get("empty_rows", 0) + dropped
+        keep_rows(out, keep)
+        out.reading["empty_rows"] = out.reading.get("empty_rows", 0) + int(np.count_nonzero(~keep))
     return out
 
 
@@ -196,7 +196,7 @@ def filled_forward(rec: Record, inertia=None) -> Record:
     # a logger writing a time twice: its duplicates are dropped later (bench.resample keeps
     # the first); here each takes its first's value
     first = np.concatenate(([True], steps > 0))
-    owner = np.maximum.accumulate(np.where(first, np.arange(len(t)), 0))
+    owner = _last_seen(first)
     tu = t[first]
     cols = {c: np.asarray(getattr(rec, c), dtype=float)[first] for c in ("q", "qd", "tau")
             if getattr(rec, c) is not None}
