@@ -14,7 +14,7 @@ import pytest
 from bench.analysis import analyze_record
 from bench.records import Record
 from bench.readers import read_record
-from bench.slow_stream import blank_between_readings, filled_forward, forward_fill_interval
+from bench.slow_stream import blank_between_readings, filled_forward, forward_fill_interval, reading_times
 from independent_joint import independent_record
 from virtual_drives.presets import PRESETS
 
@@ -64,6 +64,47 @@ def test_readings_are_interpolated_between_and_a_time_written_twice_is_no_troubl
     assert filled_forward(plain) is plain          # a torque read on every row: as it is
 
 
+def _merged(t: np.ndarray, clock: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``x`` read at the instants ``clock`` and merged onto rows at ``t`` the way pandas'
+    ``merge_asof`` does: each row takes the last reading at or before it."""
+    return x[np.maximum(np.searchsorted(clock, t, side="right") - 1, 0)]
+
+
+def test_a_streams_own_clock_is_found_from_where_its_readings_show():
+    """A merge of two loggers shows each reading on the first row at or after it, up to a row
+    late at random; where the stream keeps a clock of its own (60 ppm off 5 ms, 5.37 ms,
+    9.83 ms) its readings' instants are found to a few hundredths of a row, on a jittered lossy
+    logger.  Readings every 5th row of that logger (each lost row moves the rest by one) and a
+    clock in step with the rows (a row late or on the row: no way to tell) stay on their rows."""
+    rng = np.random.default_rng(9736)
+    n = 20000
+    nominal = 1e-3 * np.arange(n) + 1.5e-4 * rng.uniform(-1, 1, n)
+    t = np.sort(nominal[rng.uniform(size=n) >= 0.005])
+    wave = lambda s: np.sin(2 * np.pi * 0.7 * s) + 0.3 * np.sin(2 * np.pi * 3.1 * s)
+    for period in (5e-3 * (1 + 60e-6), 5.37e-3, 9.83e-3):
+        clock = np.arange(rng.uniform(0, period), t[-1], period)
+        x = _merged(t, clock, wave(clock))
+        starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
+        interval, _ = forward_fill_interval(t, x)
+        ts, found = reading_times(t, starts, interval)
+        assert found is not None and abs(found / period - 1) < 1e-4, (period, found)
+        true = clock[np.searchsorted(clock, t[starts[1:]], side="right") - 1]
+        late = (ts[1:] - true) / 1e-3                       # in rows
+        on_rows = (t[starts[1:]] - true) / 1e-3
+        assert np.median(np.abs(late)) < 0.05 and np.max(np.abs(late)) < 0.3, (period, np.abs(late).max())
+        assert np.median(on_rows) > 0.3                     # on their rows: half a row late
+        assert np.all(np.diff(ts) > 0)
+    every_fifth = _filled(wave(t), 5)
+    starts = np.concatenate(([0], np.nonzero(np.diff(every_fifth))[0] + 1))
+    ts, found = reading_times(t, starts, 5e-3)
+    assert found is None and np.array_equal(ts, t[starts])
+    in_step = np.arange(3.7e-4, t[-1], 5e-3)
+    x = _merged(t, in_step, wave(in_step))
+    starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
+    ts, found = reading_times(t, starts, 5e-3)
+    assert found is None and np.array_equal(ts, t[starts])
+
+
 def _outcome(doc: dict, spec) -> tuple:
     f = spec.friction
     errors = {k: doc["parameters"][k] / getattr(f, k) - 1 for k in ("Fc", "Fs", "sigma2")}
@@ -89,6 +130,37 @@ def test_a_slower_stream_filled_forward_is_read_between_its_readings(joint, seed
     assert list(ff) == [col] and ff[col]["read_as"] == "readings, interpolated between", ff
     assert abs(ff[col]["rows_per_reading"] / k - 1) < 0.05, ff
     assert any("filled forward" in w for w in doc["warnings"]), doc["warnings"]
+
+
+@pytest.mark.parametrize("joint,seed,col,period", [("j2", 9737, "q", 5e-3 * (1 + 60e-6)),
+                                                   ("j4", 9738, "q", 5.37e-3),
+                                                   ("linear", 9739, "tau", 9.83e-3)])
+def test_a_stream_on_its_own_clock_is_read_at_its_readings_instants(joint, seed, col, period):
+    """A merge of two loggers: the readings of a stream with its own clock, each shown on the
+    first row of the jittered lossy logger at or after it.  On the rows, up to a row late at
+    random, a 200 Hz position named a gear spring (tuning seeds 1662, 1664, 1672, 1673) or an
+    inertia error (1671); at the clock's instants: nothing named or left, within 5 %, the
+    report giving the clock's own rate.  A position under a PD loop, a torque under the sine
+    test."""
+    spec = PRESETS[joint]
+    extra = {"pd": (6.0, 0.05 if joint == "linear" else 0.3, 1.5)} if col == "q" else {}
+    rec, path = independent_record(spec, duration=20.0, seed=seed, n_sub=40, jitter=0.3, drop=0.005,
+                                   disturbance=0.01 * spec.friction.Fc, **extra)
+    clock = np.arange(np.random.default_rng(seed).uniform(0, period), rec.t[-1], period)
+    if col == "q":
+        exact = np.interp(clock, np.arange(len(path)) * (1e-3 / 40), path[:, 0])
+        reading = np.floor(exact / spec.encoder_resolution + 0.5) * spec.encoder_resolution
+    else:
+        reading = np.interp(clock, rec.t, rec.tau)
+    cols = {"tau": rec.tau, "q": rec.q}
+    cols[col] = _merged(rec.t, clock, reading)
+    keep = rec.t >= clock[0]
+    doc = analyze_record(Record(t=rec.t[keep], meta={"inertia": spec.inertia, "joint_type": spec.joint_type},
+                                **{c: x[keep] for c, x in cols.items()})).report()
+    ff = doc["resampling"]["filled_forward"][col]
+    assert ff["clock"].startswith("its own") and abs(ff["rate_hz"] * period - 1) < 1e-4, ff
+    named, left, worst, errors = _outcome(doc, spec)
+    assert not named and not left and worst < 0.05, (named, left, errors)
 
 
 @pytest.mark.parametrize("joint,seed", [("j2", 9728), ("j4", 9729)])
