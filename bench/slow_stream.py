@@ -67,12 +67,15 @@ MIN_READINGS = 20
 # tuning seeds 1670-1675).  Its readings keep a steady pace, so a line through their windows
 # (after the row before, at the row) finds their instants -- where the windows pin it: the line
 # inside at least ``CLOCK_INSIDE`` of them and the room the windows leave it (2 % left out each
-# side) at most ``CLOCK_ROOM`` of a row either way.  Measured (tuning seeds 1680-1681, 1 kHz
+# side) at most ``CLOCK_ROOM`` of a row either way.  Measured (tuning seeds 1680-1689, 1 kHz
 # rows clean, 15 % and 40 % jittered with 0.5-2 % lost): clocks of 2.7-40.3 ms, or 5 ms some
-# 20-60 ppm off, inside 0.97-1.0 and room 0.01-0.10; readings every 3-10 rows of a lossy
-# logger (each lost row moves the rest by one) inside 0.06-0.37, room -1.9 to -8.7 rows; a
-# clock in step with the rows, one phase throughout, room 0.71-1.0, where on the row and a
-# fixed share of a row late cannot be told apart: kept on the row.
+# 20-60 ppm off, inside 0.97-1.0 and room 0.01-0.10 (their own sampling scattered by 0.1 of a
+# row: 0.91-0.93, -0.10; by 0.2 and more, not pinned: read on the rows, as before); a clock in
+# step with the rows, one phase throughout, room 0.71-1.0, where on the row and a fixed share
+# of a row late cannot be told apart: kept on the row.  Readings every 3-10 rows of a logger
+# that lost 1-20 rows (each loss moves the rest by a row) never get this far: the clock must
+# first show in readings a row more or less apart than usual with no row lost between (a
+# line tilted a row across the record fits one lost row as well as a drifting clock).
 CLOCK_INSIDE = 0.9
 CLOCK_ROOM = 0.25
 
@@ -123,6 +126,16 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[n
         return ts, None
     hi, lo = t[s], t[s - 1]
     gaps = np.diff(hi)
+    row = float(np.median(np.diff(t)))
+    # A clock of its own shows where readings a period apart are a row more or less apart than
+    # most, with no row lost between; readings on the rows of a logger that lost a row or two
+    # are always a whole number of the usual count of rows apart (every row that is there)
+    # and would fit a line tilted a row across the record as well as a drifting clock does.
+    apart = np.diff(s)
+    whole = np.round(gaps / row) == apart                   # no row lost between
+    usual = np.bincount(apart[whole]).argmax() if whole.any() else 0
+    if usual == 0 or not np.any(whole & (apart % usual != 0)):
+        return ts, None
     period = float(np.mean(gaps[gaps < 1.5 * interval]))    # a reading the same as the one before: a longer gap
     # Each reading is somewhere in its window: the windows' middles scatter about the clock.
     # Counted gap by gap, lost rows can make a gap 1.5 periods and the count slip by one (once
@@ -143,7 +156,6 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[n
     # row before its window's middle); the windows are not.  Of the clocks within two rows of
     # that one over the record, take the one leaving the most room between the windows' ends
     # (2 % left out each side: the stream's own scatter), in the middle of that room.
-    row = float(np.median(np.diff(t)))
     span = 2.0 * row / max(n[-1] - n[0], 1.0)
 
     def room(p):
