@@ -35,6 +35,9 @@ HOW = {"readings, interpolated between": ("a slower stream filled forward onto a
                                           "interpolated between its readings for the analysis"),
        "a command held": ("a command the drive held that long (the motion steps with it where it "
                           "changes), used as written")}
+# a merge of two loggers' clocks (bench.slow_stream.reading_times)
+OWN_CLOCK = ("; its readings keep a clock of their own, each shown on the first row after it, and "
+             "were placed at that clock's instants")
 
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
@@ -58,7 +61,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
     for col, ff in r.get("filled_forward", {}).items():
         out.append(FILLED_FORWARD_WARNING.format(
             what={"tau": "torque", "q": "position", "qd": "velocity"}[col], rows=ff["rows_per_reading"],
-            rate=ff["rate_hz"], how=HOW[ff["read_as"]]))
+            rate=ff["rate_hz"], how=HOW[ff["read_as"]])
+            + (OWN_CLOCK if ff.get("clock", "").startswith("its own") and ff["read_as"] != "a command held" else ""))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):

@@ -132,6 +132,7 @@ def test_a_slower_stream_filled_forward_is_read_between_its_readings(joint, seed
     ff = doc["resampling"]["filled_forward"]
     assert list(ff) == [col] and ff[col]["read_as"] == "readings, interpolated between", ff
     assert abs(ff[col]["rows_per_reading"] / k - 1) < 0.05, ff
+    assert ff[col]["clock"] == "the rows'", ff             # read on the logger's own rows: kept there
     assert any("filled forward" in w for w in doc["warnings"]), doc["warnings"]
 
 
@@ -162,6 +163,7 @@ def test_a_stream_on_its_own_clock_is_read_at_its_readings_instants(joint, seed,
                                 **{c: x[keep] for c, x in cols.items()})).report()
     ff = doc["resampling"]["filled_forward"][col]
     assert ff["clock"].startswith("its own") and abs(ff["rate_hz"] * period - 1) < 1e-4, ff
+    assert any("clock of their own" in w for w in doc["warnings"]), doc["warnings"]
     named, left, worst, errors = _outcome(doc, spec)
     assert not named and not left and worst < 0.05, (named, left, errors)
 
