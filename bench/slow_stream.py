@@ -6,8 +6,9 @@ each reading for ten rows.  Read as it is, every torque sits up to 9 ms late aga
 positions, and the lag is told as physics: j2, tuning seed 1620, a 100 Hz torque on 1 kHz rows
 named an inertia 25 % too high with 86 % of the held-out error (inertia errors on 8 of 10 tuning
 records with a reading every 4-10 rows, on five joints).  Where a column repeats in runs that
-start at a steady pace, each run's first row holds a reading (the tests put it on its own row;
-a merge of two clocks, up to a row late: README known limits) and the rows between are
+start at a steady pace, each run's first row shows a reading (taken on that row, or -- two
+loggers merged -- on a clock of its own, up to a row before: ``reading_times`` finds its
+instant where the readings pin that clock) and the rows between are
 interpolated from the readings about them (a cubic spline: a linear one missed a sine's curvature by 11 %
 of the rotary motor's Fc, whose torque is 27x its friction).  Every row is kept: dropping the
 rows between (analysing at the slow stream's rate) read j3's Fc 14 % low (seed 1621, 250 Hz

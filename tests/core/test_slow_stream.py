@@ -142,8 +142,8 @@ def test_a_slower_stream_filled_forward_is_read_between_its_readings(joint, seed
 def test_a_stream_on_its_own_clock_is_read_at_its_readings_instants(joint, seed, col, period):
     """A merge of two loggers: the readings of a stream with its own clock, each shown on the
     first row of the jittered lossy logger at or after it.  On the rows, up to a row late at
-    random, a 200 Hz position named a gear spring (tuning seeds 1662, 1664, 1672, 1673) or an
-    inertia error (1671); at the clock's instants: nothing named or left, within 5 %, the
+    random, a 200 Hz position named a gear spring (tuning seeds 1672-1674) or an inertia
+    error (1671); at the clock's instants: nothing named or left, within 5 %, the
     report giving the clock's own rate.  A position under a PD loop, a torque under the sine
     test."""
     spec = PRESETS[joint]
