@@ -62,7 +62,7 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(FILLED_FORWARD_WARNING.format(
             what={"tau": "torque", "q": "position", "qd": "velocity"}[col], rows=ff["rows_per_reading"],
             rate=ff["rate_hz"], how=HOW[ff["read_as"]])
-            + (OWN_CLOCK if ff.get("clock", "").startswith("its own") and ff["read_as"] != "a command held" else ""))
+            + (OWN_CLOCK if ff.get("clock", "").startswith("its own") else ""))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):

@@ -86,6 +86,11 @@ def _last_seen(seen: np.ndarray) -> np.ndarray:
     return np.maximum.accumulate(np.where(seen, np.arange(len(seen)), 0))
 
 
+def _run_starts(x: np.ndarray) -> np.ndarray:
+    """The rows where ``x`` begins a run of one value (the first row among them)."""
+    return np.concatenate(([0], np.nonzero(np.diff(x) != 0)[0] + 1))
+
+
 def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INTERVAL
                           ) -> tuple[float, float] | None:
     """(the interval [s] at which ``x``'s readings arrive, the rows' step [s]) when they are
@@ -98,7 +103,7 @@ def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INT
     changed = d != 0
     if np.count_nonzero(~changed) < REPEATED_SHARE * len(changed):
         return None
-    starts = np.concatenate(([0], np.nonzero(changed)[0] + 1))
+    starts = _run_starts(x)
     steps = np.diff(t)
     row = float(np.median(steps[steps > 0])) if np.any(steps > 0) else 0.0
     if len(starts) < MIN_READINGS or row <= 0:
@@ -137,7 +142,8 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[n
     usual = np.bincount(apart[whole]).argmax() if whole.any() else 0
     if usual == 0 or not np.any(whole & (apart % usual != 0)):
         return ts, None
-    period = float(np.mean(gaps[gaps < 1.5 * interval]))    # a reading the same as the one before: a longer gap
+    # a reading the same as the one before makes a longer gap
+    period = float(np.mean(gaps[gaps < 1.5 * interval]))
     # Each reading is somewhere in its window: the windows' middles scatter about the clock.
     # Counted gap by gap, lost rows can make a gap 1.5 periods and the count slip by one (once
     # in 3700 readings of 5.37 ms on a lossy logger), and a line through a slipped count locks
@@ -162,8 +168,8 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[n
     def room(p):
         return np.quantile(hi - p * n, 0.02), np.quantile(lo - p * n, 0.98)
 
-    width = [np.subtract(*room(p)) for p in period + np.linspace(-span, span, 81)]
-    period += np.linspace(-span, span, 81)[int(np.argmax(width))]
+    shifts = np.linspace(-span, span, 81)
+    period += shifts[int(np.argmax([np.subtract(*room(period + d)) for d in shifts]))]
     top, bottom = room(period)
     line = 0.5 * (top + bottom) + period * n
     inside = np.mean((line > lo) & (line <= hi))
@@ -284,14 +290,16 @@ def filled_forward(rec: Record, inertia=None) -> Record:
         if hit is None:
             continue
         interval, row = hit
-        starts = np.concatenate(([0], np.nonzero(np.diff(x) != 0)[0] + 1))
+        starts = _run_starts(x)
         ts, period = reading_times(tu, starts, interval)
         between = _between(tu, x, starts, ts, interval)
         held = (col == "tau" and _number(m) != 0.0
                 and (said or _held_command(tu, new.get("q", cols["q"]), x, between, interval, m)))
         found[col] = {"rate_hz": 1.0 / (period or interval), "rows_per_reading": (period or interval) / row,
                       "read_as": "a command held" if held else "readings, interpolated between",
-                      "clock": "its own, each reading placed in its row" if period else "the rows'"}
+                      # a command held is used as written: on the rows
+                      "clock": ("its own, each reading placed in its row" if period and not held
+                                else "the rows'")}
         if not held:
             new[col] = between
     if not found:
