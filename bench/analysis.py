@@ -122,6 +122,8 @@ class Analysis:
             resampling["timestamps_spread"] = r["stamps_spread"]
         if "filled_forward" in r:  # a slower torque or position stream (bench.slow_stream)
             resampling["filled_forward"] = r["filled_forward"]
+        if "joined_streams" in r:  # streams on rows of their own (bench.joined_streams)
+            resampling["joined_streams"] = r["joined_streams"]
         if r.get("glitches"):    # position samples off their neighbours (bench.glitches)
             resampling["position_glitches_mended"] = r["glitches"]
         if "segments" in resampling and len(c.segments) == len(resampling["segments"]):

@@ -23,10 +23,11 @@ from bench.coarse_time import spread
 from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
+from bench.joined_streams import VALUES, onto_densest_rows, sparse_columns
 from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
-from bench.slow_stream import blank_between_readings, blanks_filled, filled_forward
+from bench.slow_stream import filled_forward
 from bench.turns import unwrap_turns
 from bench.units import to_si
 from bench.validate import record_magnitudes
@@ -116,9 +117,10 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
             rec.meta[key] = value
     rec.reading.setdefault("format", fmt)
     header_units.apply(rec)
-    if blank_between_readings(rec):    # a slower torque stream, empty between (bench.slow_stream)
-        rec.reading["torque_blank_between"] = True
-    drop_empty_rows(rec, name, spare=("tau",) if rec.reading.get("torque_blank_between") else ())
+    joined = sparse_columns(rec)       # streams on rows of their own (bench.joined_streams)
+    if joined:
+        rec.reading["joined_streams"] = joined
+    drop_empty_rows(rec, name, spare=VALUES if joined else ())
     counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
     if counter:
         rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}
@@ -129,11 +131,11 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     if span is not None:
         cut(rec, span, name)
     rec = spread(rec)                  # a clock coarser than the samples (bench.coarse_time)
-    rec = blanks_filled(rec)           # a slower torque, empty between (bench.slow_stream)
+    rec, instants = onto_densest_rows(rec, name)    # each reading at its own time
     # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
     # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)
-    rec = filled_forward(rec)          # a slower stream filled forward (bench.slow_stream)
+    rec = filled_forward(rec, instants=instants)   # a slower stream filled forward (bench.slow_stream)
     rec.reading["glitches"] = mend_glitches(rec)   # an encoder's bad samples, once whole turns are out
     # for --residuals at the record's own times (converted back to the file's unit there)
     rec.reading["raw_t"] = np.array(rec.t, dtype=float)

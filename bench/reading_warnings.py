@@ -5,6 +5,7 @@ report says it first."""
 from __future__ import annotations
 
 from bench.records import Record
+from bench.slow_stream import JOINED_CLOCK
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
                       "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
@@ -39,6 +40,12 @@ HOW = {"readings, interpolated between": ("a slower stream filled forward onto a
 OWN_CLOCK = ("; its readings keep a clock of their own, each shown on the first row after it, and "
              "were placed at that clock's instants")
 
+# streams on rows of their own (bench.joined_streams)
+JOINED_WARNING = ("the {what} column holds readings on rows of its own, at {rate:.4g} Hz, its other cells "
+                  "empty: each was placed at its own time on the {base} column's rows, {how}")
+JOINED_HOW = {"readings, interpolated between": "interpolated between its readings for the analysis",
+              "a command held": "held between them as a command the drive held (the motion steps with it)"}
+
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
     """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque
@@ -58,10 +65,15 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(UNWRAPPED_WARNING.format(n=r["turns_unwrapped"]))
     if r.get("time_counter"):
         out.append(COUNTER_WARNING.format(**r["time_counter"]))
+    what = {"tau": "torque", "q": "position", "qd": "velocity"}
     for col, ff in r.get("filled_forward", {}).items():
+        if ff.get("clock") == JOINED_CLOCK:
+            out.append(JOINED_WARNING.format(what=what[col], rate=ff["rate_hz"],
+                                             base=what[r["joined_streams"]["rows_of"]],
+                                             how=JOINED_HOW[ff["read_as"]]))
+            continue
         out.append(FILLED_FORWARD_WARNING.format(
-            what={"tau": "torque", "q": "position", "qd": "velocity"}[col], rows=ff["rows_per_reading"],
-            rate=ff["rate_hz"], how=HOW[ff["read_as"]])
+            what=what[col], rows=ff["rows_per_reading"], rate=ff["rate_hz"], how=HOW[ff["read_as"]])
             + (OWN_CLOCK if ff.get("clock", "").startswith("its own") else ""))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))

@@ -25,10 +25,11 @@ def keep_rows(rec: Record, mask: np.ndarray) -> None:
             rec.reading[key] = rec.reading[key][mask]
 
 
-def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> None:
+def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> np.ndarray | None:
     """Rows with an empty, NaN or infinite cell in a mapped column are a logger's dropped
-    samples: taken out (counted in the report) and handled as uneven time and gaps are.
-    ``spare``: columns whose empty cells stay (``bench.slow_stream`` fills them)."""
+    samples: taken out (counted in the report) and handled as uneven time and gaps are; the
+    rows kept (None: all).  ``spare``: columns whose empty cells stay (``bench.joined_streams``
+    fills them)."""
     cols = _columns(rec)
     ok = np.ones(len(rec.t), dtype=bool)
     for col in cols:
@@ -36,17 +37,18 @@ def drop_empty_rows(rec: Record, name: str, spare: tuple[str, ...] = ()) -> None
             continue
         ok &= np.isfinite(getattr(rec, col))
     if ok.all():
-        return
+        return None
     if not ok.any():
         alone = [c for c in cols if c != "t" and np.isfinite(getattr(rec, c)).any()]
         hint = ""
-        if len(alone) > 1:    # each stream on its own rows: an outer join of two loggers
-            hint = (f" ({', '.join(alone)} each hold numbers, on different rows: two streams joined "
-                    f"on their own times; put the slower one on the faster one's rows, filled "
-                    f"forward (pandas merge_asof), and it is read between its readings)")
+        if len(alone) > 1:    # each stream on its own rows, too few readings (bench.joined_streams)
+            hint = (f" ({', '.join(alone)} each hold numbers, on different rows: streams joined on their "
+                    f"own times, one with too few readings to read as a stream; record longer, or put "
+                    f"the slower one on the faster one's rows, filled forward (pandas merge_asof))")
         raise InputError(f"{name}: no row holds a number in every one of {', '.join(cols)}{hint}")
     keep_rows(rec, ok)
-    rec.reading["empty_rows"] = int((~ok).sum())
+    rec.reading["empty_rows"] = rec.reading.get("empty_rows", 0) + int((~ok).sum())
+    return ok
 
 
 def parse_window(spec: str | None) -> tuple[float, float] | None:

@@ -31,7 +31,6 @@ from scipy import signal
 from scipy.interpolate import CubicSpline
 
 from bench.records import Record
-from bench.rows import keep_rows
 
 # At least half the rows repeat the torque before them (a reading every 2+ rows).
 REPEATED_SHARE = 0.5
@@ -79,6 +78,8 @@ MIN_READINGS = 20
 # line tilted a row across the record fits one lost row as well as a drifting clock).
 CLOCK_INSIDE = 0.9
 CLOCK_ROOM = 0.25
+# a stream on rows of its own (bench.joined_streams): each reading's instant is in the file
+JOINED_CLOCK = "the file's: each reading at its own time"
 
 
 def _last_seen(seen: np.ndarray) -> np.ndarray:
@@ -217,60 +218,13 @@ def _held_command(t: np.ndarray, q: np.ndarray, stair: np.ndarray, smooth: np.nd
     return t_stat >= HELD_T and (m is None or m <= 0 or c * m >= HELD_SHARE)
 
 
-def blank_between_readings(rec: Record) -> bool:
-    """Does the torque column hold a reading only every few rows, its cells between empty (a
-    slower stream merged onto a faster one's rows by an outer join)?  Judged on rows: the
-    time column may still be in the file's unit.  Such rows were dropped as lost samples, the
-    record analysed at the slow stream's rate: the rotary motor at 100 Hz, tuning seed 1651,
-    every value but sigma2 undetermined (Fc -67 %); filled forward and read between its
-    readings as a stream filled forward is (``filled_forward``), the same record's faster rows
-    are kept."""
-    others = np.isfinite(np.asarray(rec.t, dtype=float)) & np.isfinite(np.asarray(rec.q, dtype=float))
-    if rec.qd is not None:
-        others &= np.isfinite(np.asarray(rec.qd, dtype=float))
-    tau = np.asarray(rec.tau, dtype=float)[others]
-    seen = np.isfinite(tau)
-    if not seen.any() or np.count_nonzero(~seen) < REPEATED_SHARE * len(tau):
-        return False
-    tau = tau[np.argmax(seen):]
-    return forward_fill_interval(np.arange(len(tau), dtype=float), tau[_last_seen(np.isfinite(tau))],
-                                 longest=np.inf) is not None
-
-
-def blanks_filled(rec: Record) -> Record:
-    """``rec``, or (where ``blank_between_readings`` found it, ``reading["torque_blank_between"]``)
-    a copy whose empty torque cells take the reading before them where it is less than 2.5
-    intervals old and the readings keep a stream's pace in seconds; the rows left empty are
-    dropped as lost samples.  ``filled_forward`` then reads the torque between its readings."""
-    if not rec.reading.get("torque_blank_between"):
-        return rec
-    out = copy.copy(rec)
-    out.reading = dict(rec.reading)
-    t, tau = np.asarray(rec.t, dtype=float), np.asarray(rec.tau, dtype=float)
-    seen = np.isfinite(tau)
-    filled = tau.copy()
-    if seen.any():
-        last = _last_seen(seen)
-        interval = float(np.median(np.diff(t[seen]))) if np.count_nonzero(seen) > 1 else 0.0
-        near = (np.arange(len(t)) >= np.argmax(seen)) & (t - t[last] <= 2.5 * interval)
-        filled = np.where(near, tau[last], np.nan)
-        ok = np.isfinite(filled)
-        if forward_fill_interval(t[ok], filled[ok]) is None:
-            filled = tau        # not a stream's pace: the empty cells are lost samples
-    out.tau = filled
-    keep = np.isfinite(filled)
-    if not keep.all():
-        keep_rows(out, keep)
-        out.reading["empty_rows"] = out.reading.get("empty_rows", 0) + int(np.count_nonzero(~keep))
-    return out
-
-
-def filled_forward(rec: Record, inertia=None) -> Record:
+def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> Record:
     """``rec``, or a copy whose forward-filled torque, position or velocity
     (``forward_fill_interval``) is interpolated between its readings -- a torque only where it
     is not a held command (``_held_command``); ``inertia``: the record's, 0 for a friction
-    column.  The copy's ``reading`` says what was found (``filled_forward``: per column, its
-    rate and how it was read)."""
+    column; ``instants``: per column placed by ``bench.joined_streams``, the instant of the
+    reading on each row (known: no pace or clock to find).  The copy's ``reading`` says what
+    was found (``filled_forward``: per column, its rate and how it was read)."""
     t = np.asarray(rec.t, dtype=float)
     steps = np.diff(t)
     if len(t) < 2 * MIN_READINGS or np.any(steps < 0):
@@ -286,19 +240,29 @@ def filled_forward(rec: Record, inertia=None) -> Record:
     said = str(rec.meta.get("torque_hold", "auto")).lower() == "zoh"
     found, new = {}, {}
     for col, x in cols.items():
-        hit = forward_fill_interval(tu, x)
-        if hit is None:
-            continue
-        interval, row = hit
-        starts = _run_starts(x)
-        ts, period = reading_times(tu, starts, interval)
+        if col in (instants or {}):
+            at = instants[col][first]
+            starts = _run_starts(at)
+            ts, period = at[starts], None
+            interval = float(np.median(np.diff(ts))) if len(ts) > 1 else np.inf
+            row = float(np.median(steps[steps > 0]))
+            if len(ts) < MIN_READINGS or interval > MAX_INTERVAL:
+                continue
+        else:
+            hit = forward_fill_interval(tu, x)
+            if hit is None:
+                continue
+            interval, row = hit
+            starts = _run_starts(x)
+            ts, period = reading_times(tu, starts, interval)
         between = _between(tu, x, starts, ts, interval)
         held = (col == "tau" and _number(m) != 0.0
                 and (said or _held_command(tu, new.get("q", cols["q"]), x, between, interval, m)))
         found[col] = {"rate_hz": 1.0 / (period or interval), "rows_per_reading": (period or interval) / row,
                       "read_as": "a command held" if held else "readings, interpolated between",
                       # a command held is used as written: on the rows
-                      "clock": ("its own, each reading placed in its row" if period and not held
+                      "clock": (JOINED_CLOCK if col in (instants or {})
+                                else "its own, each reading placed in its row" if period and not held
                                 else "the rows'")}
         if not held:
             new[col] = between

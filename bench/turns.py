@@ -29,8 +29,9 @@ def unwrap_turns(rec: Record) -> int:
     (0 for a prismatic joint or a position that never jumps by half a turn)."""
     if str(rec.meta.get("joint_type", "revolute")) != "revolute" or len(rec.q) < 3:
         return 0
-    q = np.asarray(rec.q, dtype=float)
-    dq = np.diff(q)
+    q = np.array(rec.q, dtype=float)
+    seen = np.isfinite(q)      # a position on rows of its own: empty elsewhere (bench.joined_streams)
+    dq = np.diff(q[seen])
     jump = np.abs(dq) > TURN / 2.0
     if not jump.any() or jump.all():
         return 0
@@ -38,7 +39,8 @@ def unwrap_turns(rec: Record) -> int:
     left = dq[jump] - turns * TURN
     if np.abs(dq[~jump]).max() >= QUARTER or np.abs(left).max() >= QUARTER:
         return 0
-    shift = np.zeros(len(q))
+    shift = np.zeros(np.count_nonzero(seen))
     shift[1:][jump] = -turns * TURN
-    rec.q = q + np.cumsum(shift)
+    q[seen] += np.cumsum(shift)
+    rec.q = q
     return int(np.abs(turns).sum())

@@ -13,8 +13,7 @@ import pytest
 
 from bench.analysis import analyze_record
 from bench.records import Record
-from bench.readers import read_record
-from bench.slow_stream import blank_between_readings, filled_forward, forward_fill_interval, reading_times
+from bench.slow_stream import filled_forward, forward_fill_interval, reading_times
 from independent_joint import independent_record
 from virtual_drives.presets import PRESETS
 
@@ -209,42 +208,3 @@ def test_a_logger_merging_a_slow_torque_stream_is_analysed_end_to_end(tmp_path):
     table = np.genfromtxt(res, delimiter=",", names=True)
     assert len(table) == len(rec.t)
     np.testing.assert_allclose(table["t"], np.round(rec.t, 6), atol=1e-9)
-
-
-def test_a_torque_read_slower_with_empty_cells_between_keeps_the_faster_rows():
-    """An outer join leaves the slow stream's other cells empty.  Those rows were dropped as
-    lost samples and the rotary motor analysed at 100 Hz: every value but sigma2
-    undetermined, Fc -67 % (tuning seed 1651).  Now the empty cells are filled from the
-    reading before them and read between the readings: within 5 %, nothing named or left.
-    Lost samples and a torque sensor dead for a stretch stay empty rows, as before."""
-    spec = PRESETS["rotary"]
-    rec, _ = independent_record(spec, duration=20.0, seed=9732, disturbance=0.01 * spec.friction.Fc,
-                                jitter=0.3, drop=0.005)
-    text = "t,tau,q\n" + "".join(f"{a:.6f},{b if i % 10 == 3 else ''},{c:.12g}\n"
-                                  for i, (a, b, c) in enumerate(zip(rec.t, rec.tau, rec.q)))
-    read = read_record(text.encode(), name="joined.csv", inertia=spec.inertia, joint_type=spec.joint_type)
-    assert len(read.t) > 0.9 * len(rec.t)           # the faster rows kept
-    doc = analyze_record(read).report()
-    assert doc["resampling"]["filled_forward"]["tau"]["read_as"] == "readings, interpolated between"
-    named, left, worst, errors = _outcome(doc, spec)
-    assert not named and not left and worst < 0.05, (named, left, errors)
-    n = len(rec.t)
-    lost = rec.tau.copy()
-    lost[np.random.default_rng(9733).uniform(size=n) < 0.01] = np.nan
-    dead = rec.tau.copy()
-    dead[n // 5: 4 * n // 5] = np.nan
-    for tau in (lost, dead):
-        assert not blank_between_readings(Record(t=rec.t, tau=tau, q=rec.q))
-
-
-def test_two_streams_on_their_own_rows_are_refused_with_what_to_do():
-    """A join of two loggers on their own times (the torque's rows without a position, the
-    encoder's without a torque): no row holds both, and the one-line error says how to put
-    them together so that the torque is read between its readings."""
-    from bench.errors import InputError
-    rows = "".join(f"{i / 1000:.3f},{'' if i % 10 else 1.5 + i / 1e4},{'' if i % 10 == 0 else i / 1e5}\n"
-                   for i in range(400))
-    with pytest.raises(InputError) as err:
-        read_record(("t,tau,q\n" + rows).encode(), name="joined.csv", inertia=1.0)
-    assert "no row holds a number in every one of t, tau, q" in str(err.value)
-    assert "merge_asof" in str(err.value) and "\n" not in str(err.value)
