@@ -19,6 +19,7 @@ import copy
 import numpy as np
 
 from bench.records import Record
+from bench.resample import increasing
 from bench.rows import drop_empty_rows, keep_rows
 
 VALUES = ("tau", "q", "qd")
@@ -59,14 +60,14 @@ def onto_densest_rows(rec: Record, name: str) -> tuple[Record, dict]:
     """``rec`` (``reading["joined_streams"]`` set by ``sparse_columns``) on its densest
     column's rows, each sparser column holding the last reading at or before each row, and
     {column: per row, the instant of the reading it holds}; rows before a stream's first
-    reading or across a pause in it are dropped as lost samples (counted).  Otherwise, or
-    with time going back (an error ``bench.resample`` names), the rows with an empty cell are
-    dropped as they always were."""
+    reading or across a pause in it are dropped as lost samples (counted).  Otherwise the rows
+    with an empty cell are dropped as they always were."""
     joined = rec.reading.get("joined_streams")
-    t = np.asarray(rec.t, dtype=float)
-    if not joined or np.any(np.diff(t[np.isfinite(t)]) < 0):
+    if not joined:
         drop_empty_rows(rec, name)
         return rec, {}
+    t = np.asarray(rec.t, dtype=float)
+    increasing(t, name)        # the readings are looked up by time
     out = copy.copy(rec)
     out.reading = dict(rec.reading)
     keep_rows(out, np.isfinite(np.asarray(getattr(rec, joined["rows_of"]), dtype=float)) & np.isfinite(t))

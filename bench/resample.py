@@ -44,18 +44,23 @@ EVEN_TOL = 0.01
 MIN_SEGMENT_SAMPLES = 4
 
 
+def increasing(t: np.ndarray, name: str) -> None:
+    """Time that goes back is an error naming where."""
+    back = np.nonzero(np.diff(t) < 0)[0]
+    if len(back):
+        i = int(back[0])
+        raise InputError(f"{name}: time is not increasing: it goes back from t={t[i]:g} to t={t[i + 1]:g} "
+                         f"at data row {i + 2}")
+
+
 def regularise(rec: Record, name: str = "record") -> Record:
     """``rec`` on a uniform grid, split at gaps, with ``rec.reading['resampling']`` saying
     what was done.  ``rec``'s arrays must be finite."""
     t = np.asarray(rec.t, dtype=float)
     if len(t) < 2:
         raise InputError(f"{name}: only {len(t)} samples; a record needs at least two excitation cycles")
+    increasing(t, name)
     d = np.diff(t)
-    back = np.nonzero(d < 0)[0]
-    if len(back):
-        i = int(back[0])
-        raise InputError(f"{name}: time is not increasing: it goes back from t={t[i]:g} to t={t[i + 1]:g} "
-                         f"at data row {i + 2}")
     keep = np.concatenate(([True], d > 0))
     duplicates = int(len(t) - keep.sum())
     cols = {k: np.asarray(getattr(rec, k), dtype=float)[keep] for k in ("t", "tau", "q")}

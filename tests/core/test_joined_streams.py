@@ -97,3 +97,15 @@ def test_streams_of_their_own_too_short_to_place_are_refused_with_what_to_do():
         read_record(("t,tau,q\n" + rows).encode(), name="joined.csv", inertia=1.0)
     assert "no row holds a number in every one of t, tau, q" in str(err.value)
     assert "merge_asof" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_streams_of_their_own_with_time_going_back_name_where():
+    """The readings are looked up by time: a join whose time goes back is the error it always
+    was, one line naming where."""
+    t = 1e-3 * np.arange(400)
+    t[300:] -= 0.05
+    rows = "".join(f"{a:.4f},{'' if i % 5 else 1.5 + i / 1e4},{'' if i % 5 == 0 else i / 1e5}\n"
+                   for i, a in enumerate(t))
+    with pytest.raises(InputError) as err:
+        read_record(("t,tau,q\n" + rows).encode(), name="joined.csv", inertia=1.0)
+    assert "time is not increasing: it goes back" in str(err.value) and "\n" not in str(err.value)
