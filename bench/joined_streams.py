@@ -8,7 +8,7 @@ exactly when each reading was taken.  Read as lost samples, such rows were dropp
 on rows of its own left no row holding every column (refused), and a sparser torque or
 position had the record analysed at its rate (the rotary motor's 100 Hz torque on 1 kHz rows:
 every value but sigma2 undetermined, Fc -67 %, tuning seed 1651).  Here the record keeps the
-rows of its densest stream, and each sparser column takes the last reading before each row
+torque's rows (or a stream's 2.5x as dense), and each other column takes the last reading before each row
 together with that reading's instant, so that ``bench.slow_stream.filled_forward`` reads it
 between its readings at their own times (or, a command held, as written).
 """
@@ -21,12 +21,13 @@ import numpy as np
 from bench.records import Record
 from bench.resample import increasing
 from bench.rows import drop_empty_rows, keep_rows
+from bench.slow_stream import MIN_ROWS_PER_READING
 
 VALUES = ("tau", "q", "qd")
-# A column is a sparser stream where it is empty on at least half the rows holding any
-# reading and its readings are spread among them (at least half as many runs of empty cells
-# as readings): a logger's lost samples (1 % of the rows) and a sensor dead for a stretch
-# (one run) stay lost samples, dropped rows, as before.
+# A column is a stream of its own where it is empty on at least half the kept rows and its
+# readings are spread among the rows (at least half as many runs of empty cells as
+# readings): a logger's lost samples (1 % of the rows) and a sensor dead for a stretch (one
+# run) stay lost samples, dropped rows, as before.
 EMPTY_SHARE = 0.5
 SPREAD_SHARE = 0.5
 # fewer readings than this and a column is not read as a stream
@@ -37,7 +38,7 @@ STALE_INTERVALS = 2.5
 
 
 def sparse_columns(rec: Record) -> dict | None:
-    """{"rows_of": the densest value column, "placed": the sparser streams} where ``rec`` holds
+    """{"rows_of": the torque or a denser column, "placed": the sparser streams} where ``rec`` holds
     streams on rows of their own (module docstring); else None.  Counts only: the time column
     may still be in the file's unit."""
     cols = [c for c in VALUES if getattr(rec, c) is not None]
@@ -45,20 +46,29 @@ def sparse_columns(rec: Record) -> dict | None:
     rows = np.isfinite(np.asarray(rec.t, dtype=float)) & np.logical_or.reduce([seen[c] for c in cols])
     if np.count_nonzero(rows) < 2 * MIN_READINGS:
         return None
-    base = max(cols, key=lambda c: np.count_nonzero(seen[c] & rows))
+    count = {c: np.count_nonzero(seen[c] & rows) for c in cols}
+    # The torque's rows are kept unless a stream holds 2.5x its readings: the friction is
+    # measured where the torque was read, and a torque placed on rows about as dense as its
+    # own is beyond the held-command test (calibrated every 3-10 rows): a PID's torque read
+    # on rows of its own between a 1 kHz encoder's was taken for a command held and the
+    # rotary motor's Fc read -63 % (tuning seed 1710).  Denser streams win: dropping rows
+    # between a torque's readings read Fc 14-44 % low (``bench.slow_stream``).
+    densest = max(cols, key=count.get)
+    base = "tau" if count["tau"] * MIN_ROWS_PER_READING > count[densest] else densest
     placed = []
     for c in cols:
         s = seen[c][rows]
         n = np.count_nonzero(s)
         empty_runs = np.count_nonzero(np.diff(s.astype(np.int8)) == -1) + int(not s[0])
-        if c != base and n >= MIN_READINGS and 1.0 - n / len(s) >= EMPTY_SHARE and empty_runs >= SPREAD_SHARE * n:
+        empty = 1.0 - np.count_nonzero(seen[c] & seen[base] & rows) / count[base]
+        if c != base and n >= MIN_READINGS and empty >= EMPTY_SHARE and empty_runs >= SPREAD_SHARE * n:
             placed.append(c)
     return {"rows_of": base, "placed": placed} if placed else None
 
 
-def onto_densest_rows(rec: Record, name: str) -> tuple[Record, dict]:
-    """``rec`` (``reading["joined_streams"]`` set by ``sparse_columns``) on its densest
-    column's rows, each sparser column holding the last reading at or before each row, and
+def onto_kept_rows(rec: Record, name: str) -> tuple[Record, dict]:
+    """``rec`` (``reading["joined_streams"]`` set by ``sparse_columns``) on the rows its
+    torque (or a denser stream) was read on, each other column holding the last reading at or before each row, and
     {column: per row, the instant of the reading it holds}; rows before a stream's first
     reading or across a pause in it are dropped as lost samples (counted).  Otherwise the rows
     with an empty cell are dropped as they always were."""

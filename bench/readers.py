@@ -23,7 +23,7 @@ from bench.coarse_time import spread
 from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
-from bench.joined_streams import VALUES, onto_densest_rows, sparse_columns
+from bench.joined_streams import VALUES, onto_kept_rows, sparse_columns
 from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
@@ -131,7 +131,7 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
     if span is not None:
         cut(rec, span, name)
     rec = spread(rec)                  # a clock coarser than the samples (bench.coarse_time)
-    rec, instants = onto_densest_rows(rec, name)    # each reading at its own time
+    rec, instants = onto_kept_rows(rec, name)    # each reading at its own time
     # the columns' magnitudes before any interpolation (1e300 overflows one); the inertia is
     # validate()'s, below
     record_magnitudes(rec, None, name, with_inertia=False)

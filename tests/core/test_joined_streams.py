@@ -28,7 +28,7 @@ def _csv(rows) -> bytes:
 
 def test_which_columns_are_streams_of_their_own():
     """Every tenth row, or rows of its own between the other stream's: a stream, placed on the
-    densest column's rows.  A logger's lost samples (1 %) and a sensor dead for a stretch stay
+    torque's rows (or a stream's with 2.5x its readings).  A logger's lost samples (1 %) and a sensor dead for a stretch stay
     lost samples (None: their rows are dropped, as before)."""
     rng = np.random.default_rng(9740)
     n = 2000
@@ -37,6 +37,11 @@ def test_which_columns_are_streams_of_their_own():
     every_tenth = np.where(np.arange(n) % 10 == 3, tau, np.nan)
     assert sparse_columns(Record(t=t, tau=every_tenth, q=q)) == {"rows_of": "q", "placed": ["tau"]}
     own = np.arange(n) % 5 == 1                     # the position's own rows, the torque's empty there
+    assert sparse_columns(Record(t=t, tau=np.where(own, np.nan, tau), q=np.where(own, q, np.nan))) == \
+        {"rows_of": "tau", "placed": ["q"]}
+    # two 1 kHz loggers, the encoder's a little denser: the torque's rows are kept
+    own = np.arange(n) % 2 == 1
+    own[::50] = True
     assert sparse_columns(Record(t=t, tau=np.where(own, np.nan, tau), q=np.where(own, q, np.nan))) == \
         {"rows_of": "tau", "placed": ["q"]}
     lost = np.where(rng.uniform(size=n) < 0.01, np.nan, tau)
