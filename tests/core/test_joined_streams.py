@@ -69,17 +69,24 @@ def test_a_torque_read_slower_with_empty_cells_between_keeps_the_faster_rows():
     assert not named and not left and worst < 0.05, (named, left, errors)
 
 
-@pytest.mark.parametrize("joint,seed,period", [("j1", 9741, 5.37e-3), ("linear", 9742, 4e-3)])
-def test_a_position_on_rows_of_its_own_is_read_at_its_own_times(joint, seed, period):
+@pytest.mark.parametrize("joint,seed,period,pid", [("j1", 9741, 5.37e-3, False), ("linear", 9742, 4e-3, False),
+                                                   ("rotary", 9743, 1e-3, True)])
+def test_a_position_on_rows_of_its_own_is_read_at_its_own_times(joint, seed, period, pid):
     """An encoder logged on its own clock, its rows between the torque logger's (an outer join
     on time, each stream's other cells empty): no row held both, and the file was refused.
     Now each position is placed at its own time on the torque's rows and interpolated between:
     nothing named or left, Fc, Fs, sigma2 within 5 %, the torque's rows kept, and the report
-    says how the position was read."""
+    says how the position was read.  The rotary motor under a PID loop with a 1 kHz encoder
+    (as dense as the torque): its torque placed on the encoder's rows read as a command held,
+    Fc -63 % (tuning seed 1710); the torque's rows are kept."""
     spec = PRESETS[joint]
     dt, n_sub = 1e-3, 40
+    loop = {}
+    if pid:       # a 6 Hz PID tracking half the sine test's travel
+        sine, _ = independent_record(spec, duration=4.0, seed=1)
+        loop = dict(pd=(6.0, 0.5 * float(sine.q.max() - sine.q.min()), 1.5))
     rec, path = independent_record(spec, duration=20.0, seed=seed, disturbance=0.01 * spec.friction.Fc,
-                                   jitter=0.3, drop=0.005, dt=dt, n_sub=n_sub)
+                                   jitter=0.3, drop=0.005, dt=dt, n_sub=n_sub, **loop)
     clock = np.arange(np.random.default_rng(seed).uniform(0, period), rec.t[-1], period)
     encoder = path[np.round(clock / (dt / n_sub)).astype(int), 0]       # the motor's angle then
     rows = [(a, b, None) for a, b in zip(rec.t, rec.tau)] + [(a, None, c) for a, c in zip(clock, encoder)]
@@ -87,6 +94,7 @@ def test_a_position_on_rows_of_its_own_is_read_at_its_own_times(joint, seed, per
     assert len(read.t) > 0.99 * len(rec.t)
     doc = analyze_record(read).report()
     ff = doc["resampling"]["filled_forward"]
+    assert doc["resampling"]["joined_streams"] == {"rows_of": "tau", "placed": ["q"]}
     assert list(ff) == ["q"] and abs(ff["q"]["rate_hz"] * period - 1) < 1e-3, ff
     assert any("position column holds readings on rows of its own" in w for w in doc["warnings"]), doc["warnings"]
     named, left, worst, errors = _outcome(doc, spec)
