@@ -2,8 +2,7 @@
 
 A table that holds each stream's readings on the rows of their own instants and leaves the
 other columns' cells empty there -- an outer join of two loggers' tables on their time
-columns, a ROS bag exported with one row per message (PlotJuggler's CSV export leaves the
-other series empty), a torque written on every tenth row of the encoder's logger -- says
+columns, a ROS bag exported with one row per message and the other topics' cells empty, a torque written on every tenth row of the encoder's logger -- says
 exactly when each reading was taken.  Read as lost samples, such rows were dropped: a torque
 on rows of its own left no row holding every column (refused), and a sparser torque or
 position had the record analysed at its rate (the rotary motor's 100 Hz torque on 1 kHz rows:
