@@ -24,7 +24,7 @@ from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, judged
 from bench.perfect_model import replay, torque_step
-from bench.reading_warnings import reading_warnings
+from bench.reading_warnings import reading_warnings, refusal_hint
 from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
@@ -221,7 +221,7 @@ def _analyze(rec: Record, inertia, add, diagnose_effects: bool, cutoff, name: st
                 rec = _torque_reversed(rec)
                 ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
             except NotIdentifiable:
-                raise refused from None
+                raise NotIdentifiable(f"{refused}{refusal_hint(rec)}") from None
             ident.warnings.insert(0, REVERSED_WARNING)
         step = torque_step(rec, ident.data.coulomb)
         ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step, ident.data.held_poses)

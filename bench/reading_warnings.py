@@ -46,6 +46,25 @@ JOINED_WARNING = ("the {what} column holds readings on rows of its own, at {rate
 JOINED_HOW = {"readings, interpolated between": "interpolated between its readings for the analysis",
               "a command held": "held between them as a command the drive held (the motion steps with it)"}
 
+# a refusal on a record with a slower stream merged onto its rows (bench.slow_stream): the merge
+# lost the readings' instants, up to a row each, which the second derivative amplifies; with
+# its own scatter of 0.3 of a row a 200 Hz position under a PID loop was refused as "never
+# reaches sliding" on the linear stage, while the same readings at their own times were read
+# within 0.5 % (tuning seed 1720)
+MERGED_REFUSAL = ("; the {what} column is a slower stream ({rate:.4g} Hz) merged onto these rows, "
+                  "which lost its readings' own times (up to a row each), enough to hide sliding on "
+                  "a fast joint: where the logger has them, keep them (each stream on rows of its "
+                  "own, the other cells empty) and each reading is placed at its own time")
+
+
+def refusal_hint(rec: Record) -> str:
+    """What to add to a refusal when a column came from a slower stream merged onto the rows
+    without its own times (empty otherwise)."""
+    what = {"tau": "torque", "q": "position", "qd": "velocity"}
+    merged = [(c, ff) for c, ff in rec.reading.get("filled_forward", {}).items()
+              if ff.get("clock") != JOINED_CLOCK and ff.get("read_as") != "a command held"]
+    return "".join(MERGED_REFUSAL.format(what=what[c], rate=ff["rate_hz"]) for c, ff in merged[:1])
+
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
     """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from bench.analysis import analyze_record
+from bench.errors import InputError
 from bench.records import Record
 from bench.slow_stream import filled_forward, forward_fill_interval, reading_times
 from independent_joint import independent_record
@@ -208,3 +209,24 @@ def test_a_logger_merging_a_slow_torque_stream_is_analysed_end_to_end(tmp_path):
     table = np.genfromtxt(res, delimiter=",", names=True)
     assert len(table) == len(rec.t)
     np.testing.assert_allclose(table["t"], np.round(rec.t, 6), atol=1e-9)
+
+
+def test_a_refusal_on_a_merged_stream_says_how_to_keep_its_times():
+    """A merge loses a slower stream's own times (up to a row each), which can hide sliding on
+    a fast joint (a 200 Hz position with its own scatter, the linear stage under a PID loop,
+    tuning seed 1720: refused, read within 0.5 % at its own times).  A refusal on such a record
+    says so, on its one line; the same record with every position keeps the plain refusal."""
+    spec = PRESETS["j2"]
+    t = np.arange(20000) * 1e-3
+    below = 0.7 * spec.friction.Fc * np.sin(2 * np.pi * spec.excitation[1] * t)   # never breaks away
+    rec, _ = independent_record(spec, duration=20.0, seed=9744, torque=below)
+    refusals = []
+    for q in (_filled(rec.q, 5), rec.q):
+        with pytest.raises(InputError) as err:
+            analyze_record(Record(t=rec.t, tau=rec.tau, q=q, meta=dict(rec.meta)))
+        refusals.append(str(err.value))
+    merged, plain = refusals
+    assert "never reaches sliding" in merged and "\n" not in merged
+    assert "the position column is a slower stream (200 Hz) merged onto these rows" in merged
+    assert "each stream on rows of its own" in merged
+    assert "never reaches sliding" in plain and "merged" not in plain
