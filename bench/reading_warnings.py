@@ -5,6 +5,7 @@ report says it first."""
 from __future__ import annotations
 
 from bench.records import Record
+from bench import slow_stream
 from bench.slow_stream import JOINED_CLOCK
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
@@ -39,6 +40,8 @@ HOW = {"readings, interpolated between": ("a slower stream filled forward onto a
 # a merge of two loggers' clocks (bench.slow_stream.reading_times)
 OWN_CLOCK = ("; its readings keep a clock of their own, each shown on the first row after it, and "
              "were placed at that clock's instants")
+OWN_CLOCK_ROUGH = (" (to within a row: the rows where they show leave that clock room; each stream's "
+                   "own times, where the logger has them, place them exactly)")
 
 # streams on rows of their own (bench.joined_streams)
 JOINED_WARNING = ("the {what} column holds readings on rows of its own, at {rate:.4g} Hz, its other cells "
@@ -93,7 +96,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
             continue
         out.append(FILLED_FORWARD_WARNING.format(
             what=what[col], rows=ff["rows_per_reading"], rate=ff["rate_hz"], how=HOW[ff["read_as"]])
-            + (OWN_CLOCK if ff.get("clock", "").startswith("its own") else ""))
+            + (OWN_CLOCK if ff.get("clock", "").startswith("its own") else "")
+            + (OWN_CLOCK_ROUGH if ff.get("clock") == slow_stream.OWN_CLOCK_ROUGH else ""))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):

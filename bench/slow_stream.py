@@ -65,21 +65,31 @@ MIN_READINGS = 20
 # at or after it: up to a row late, at random, which the second derivative amplifies (a 200 Hz
 # position so read named a gear spring on j1-j3 and an inertia error on the rotary motor,
 # tuning seeds 1670-1675).  Its readings keep a steady pace, so a line through their windows
-# (after the row before, at the row) finds their instants -- where the windows pin it: the line
-# inside at least ``CLOCK_INSIDE`` of them and the room the windows leave it (2 % left out each
-# side) at most ``CLOCK_ROOM`` of a row either way.  Measured (tuning seeds 1680-1689, 1 kHz
+# (after the row before, at the row) finds their instants; the windows pin it where the line
+# is inside at least ``CLOCK_INSIDE`` of them and the room they leave it (2 % left out each
+# side) is at most ``CLOCK_ROOM`` of a row either way.  Measured (tuning seeds 1680-1689, 1 kHz
 # rows clean, 15 % and 40 % jittered with 0.5-2 % lost): clocks of 2.7-40.3 ms, or 5 ms some
 # 20-60 ppm off, inside 0.97-1.0 and room 0.01-0.10 (their own sampling scattered by 0.1 of a
-# row: 0.91-0.93, -0.10; by 0.2 and more, not pinned: read on the rows, as before); a clock in
-# step with the rows, one phase throughout, room 0.71-1.0, where on the row and a fixed share
-# of a row late cannot be told apart: kept on the row.  Readings every 3-10 rows of a logger
-# that lost 1-20 rows (each loss moves the rest by a row) never get this far: the clock must
-# first show in readings a row more or less apart than usual with no row lost between (a
-# line tilted a row across the record fits one lost row as well as a drifting clock).
+# row: 0.91-0.93, -0.10; by 0.2 and more, not pinned); a clock in step with the rows, one
+# phase throughout, room 0.71-1.0.  Not pinned, the line still errs steadily where the rows
+# err at random: the readings are placed on it (clipped into their windows) and the report
+# says the clock was not pinned.  A 200 Hz position under a PID loop (tuning seeds 1720-1725,
+# six joints, the jittered lossy logger) from a clock in step with the rows, 0.37 and 0.8 ms
+# after them: on the rows a gear spring, a torque lag or an inertia error named on 7 of 12 and
+# the linear stage's, the rotary motor's and j3's Fc undetermined; on the line nothing named
+# but where the true instants name it too (a linear stage's gear spring); with their own sampling
+# scattered by 0.3 of a row: j2's Fc -5.4 % on the rows, -0.9 % on the line (-0.8 % at the
+# true instants).  Readings every 3-10 rows of a logger that lost 1-20 rows (each loss moves
+# the rest by a row) never get this far: the clock must first show in readings a row more or
+# less apart than usual with no row lost between (a line tilted a row across the record fits
+# one lost row as well as a drifting clock).
 CLOCK_INSIDE = 0.9
 CLOCK_ROOM = 0.25
 # a stream on rows of its own (bench.joined_streams): each reading's instant is in the file
 JOINED_CLOCK = "the file's: each reading at its own time"
+# the report's word for a clock of its own, pinned by its readings' windows or not
+OWN_CLOCK = "its own, each reading placed in its row"
+OWN_CLOCK_ROUGH = "its own, not pinned by its readings: each placed in its row on the steadiest clock"
 
 
 def _last_seen(seen: np.ndarray) -> np.ndarray:
@@ -123,14 +133,15 @@ def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INT
 
 
 def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[np.ndarray, float | None]:
-    """The instants of the readings that show first on the rows ``starts`` (times ``t``), and
-    the period of their own clock -- where a steady clock through their windows (after the row
-    before, at the row) is pinned by them (``CLOCK_INSIDE``, ``CLOCK_ROOM``); else the rows'
-    own times and None.  The first run may have begun before the log: it stays on its row."""
+    """The instants of the readings that show first on the rows ``starts`` (times ``t``), the
+    period of their own clock and whether their windows (after the row before, at the row)
+    pin it (``CLOCK_INSIDE``, ``CLOCK_ROOM``) -- where the readings show a clock of their own;
+    else the rows' own times, None and False.  The first run may have begun before the log:
+    it stays on its row."""
     ts = t[starts].copy()
     s = starts[1:]
     if len(s) < MIN_READINGS:
-        return ts, None
+        return ts, None, False
     hi, lo = t[s], t[s - 1]
     gaps = np.diff(hi)
     row = float(np.median(np.diff(t)))
@@ -142,7 +153,7 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[n
     whole = np.round(gaps / row) == apart                   # no row lost between
     usual = np.bincount(apart[whole]).argmax() if whole.any() else 0
     if usual == 0 or not np.any(whole & (apart % usual != 0)):
-        return ts, None
+        return ts, None, False
     # a reading the same as the one before makes a longer gap
     period = float(np.mean(gaps[gaps < 1.5 * interval]))
     # Each reading is somewhere in its window: the windows' middles scatter about the clock.
@@ -174,10 +185,8 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[n
     top, bottom = room(period)
     line = 0.5 * (top + bottom) + period * n
     inside = np.mean((line > lo) & (line <= hi))
-    if inside < CLOCK_INSIDE or abs(top - bottom) > CLOCK_ROOM * row:
-        return ts, None
     ts[1:] = np.clip(line, np.nextafter(lo, np.inf), hi)
-    return ts, float(period)
+    return ts, float(period), bool(inside >= CLOCK_INSIDE and abs(top - bottom) <= CLOCK_ROOM * row)
 
 
 def _between(t: np.ndarray, x: np.ndarray, starts: np.ndarray, ts: np.ndarray, interval: float) -> np.ndarray:
@@ -243,7 +252,7 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
         if col in (instants or {}):
             at = instants[col][first]
             starts = _run_starts(at)
-            ts, period = at[starts], None
+            ts, period, pinned = at[starts], None, True
             interval = float(np.median(np.diff(ts))) if len(ts) > 1 else np.inf
             row = float(np.median(steps[steps > 0]))
             if len(ts) < MIN_READINGS or interval > MAX_INTERVAL:
@@ -254,7 +263,7 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
                 continue
             interval, row = hit
             starts = _run_starts(x)
-            ts, period = reading_times(tu, starts, interval)
+            ts, period, pinned = reading_times(tu, starts, interval)
         between = _between(tu, x, starts, ts, interval)
         held = (col == "tau" and _number(m) != 0.0
                 and (said or _held_command(tu, new.get("q", cols["q"]), x, between, interval, m)))
@@ -262,7 +271,8 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
                       "read_as": "a command held" if held else "readings, interpolated between",
                       # a command held is used as written: on the rows
                       "clock": (JOINED_CLOCK if col in (instants or {})
-                                else "its own, each reading placed in its row" if period and not held
+                                else OWN_CLOCK if period and pinned and not held
+                                else OWN_CLOCK_ROUGH if period and not held
                                 else "the rows'")}
         if not held:
             new[col] = between

@@ -76,8 +76,9 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
     9.83 ms) its readings' instants are found to a few hundredths of a row, on a jittered lossy
     logger.  Readings every 5th row of that logger or of a clean one that lost a single row
     (each lost row moves the rest by one, which a line tilted a row across the record fits
-    like a drifting clock) and a clock in step with the rows (a row late or on the row: no way
-    to tell) stay on their rows."""
+    like a drifting clock) stay on their rows.  A clock in step with the rows (one phase
+    throughout) is not pinned, and its readings are placed on the steadiest clock: off by
+    one steady share of a row, where on their rows they were off at random."""
     rng = np.random.default_rng(9736)
     n = 20000
     nominal = 1e-3 * np.arange(n) + 1.5e-4 * rng.uniform(-1, 1, n)
@@ -88,8 +89,8 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
         x = _merged(t, clock, wave(clock))
         starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
         interval, _ = forward_fill_interval(t, x)
-        ts, found = reading_times(t, starts, interval)
-        assert found is not None and abs(found / period - 1) < 1e-4, (period, found)
+        ts, found, pinned = reading_times(t, starts, interval)
+        assert pinned and abs(found / period - 1) < 1e-4, (period, found)
         true = clock[np.searchsorted(clock, t[starts[1:]], side="right") - 1]
         late = (ts[1:] - true) / 1e-3                       # in rows
         on_rows = (t[starts[1:]] - true) / 1e-3
@@ -99,13 +100,17 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
     for rows in (t, np.delete(1e-3 * np.arange(n), 11111)):     # lossy; clean but for one lost row
         every_fifth = _filled(wave(rows), 5)
         starts = np.concatenate(([0], np.nonzero(np.diff(every_fifth))[0] + 1))
-        ts, found = reading_times(rows, starts, 5e-3)
-        assert found is None and np.array_equal(ts, rows[starts])
+        ts, found, pinned = reading_times(rows, starts, 5e-3)
+        assert found is None and not pinned and np.array_equal(ts, rows[starts])
     in_step = np.arange(3.7e-4, t[-1], 5e-3)
     x = _merged(t, in_step, wave(in_step))
     starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
-    ts, found = reading_times(t, starts, 5e-3)
-    assert found is None and np.array_equal(ts, t[starts])
+    ts, found, pinned = reading_times(t, starts, 5e-3)
+    assert found is not None and not pinned and abs(found / 5e-3 - 1) < 1e-4, found
+    true = in_step[np.searchsorted(in_step, t[starts[1:]], side="right") - 1]
+    late, on_rows = (ts[1:] - true) / 1e-3, (t[starts[1:]] - true) / 1e-3     # in rows
+    assert np.std(late) < 0.05 and np.std(late) < 0.2 * np.std(on_rows), (np.std(late), np.std(on_rows))
+    assert np.all(np.abs(late) <= 1.0) and np.all(np.diff(ts) > 0)
 
 
 def _outcome(doc: dict, spec) -> tuple:
