@@ -5,8 +5,7 @@ report says it first."""
 from __future__ import annotations
 
 from bench.records import Record
-from bench import slow_stream
-from bench.slow_stream import JOINED_CLOCK
+from bench.slow_stream import JOINED_CLOCK, OWN_CLOCK_ROUGH as NOT_PINNED
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
                       "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
@@ -97,7 +96,7 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(FILLED_FORWARD_WARNING.format(
             what=what[col], rows=ff["rows_per_reading"], rate=ff["rate_hz"], how=HOW[ff["read_as"]])
             + (OWN_CLOCK if ff.get("clock", "").startswith("its own") else "")
-            + (OWN_CLOCK_ROUGH if ff.get("clock") == slow_stream.OWN_CLOCK_ROUGH else ""))
+            + (OWN_CLOCK_ROUGH if ff.get("clock") == NOT_PINNED else ""))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):

@@ -132,7 +132,8 @@ def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INT
     return interval, row
 
 
-def reading_times(t: np.ndarray, starts: np.ndarray, interval: float) -> tuple[np.ndarray, float | None]:
+def reading_times(t: np.ndarray, starts: np.ndarray, interval: float
+                  ) -> tuple[np.ndarray, float | None, bool]:
     """The instants of the readings that show first on the rows ``starts`` (times ``t``), the
     period of their own clock and whether their windows (after the row before, at the row)
     pin it (``CLOCK_INSIDE``, ``CLOCK_ROOM``) -- where the readings show a clock of their own;
