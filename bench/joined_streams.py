@@ -2,14 +2,16 @@
 
 A table that holds each stream's readings on the rows of their own instants and leaves the
 other columns' cells empty there -- an outer join of two loggers' tables on their time
-columns, a ROS bag exported with one row per message and the other topics' cells empty, a torque written on every tenth row of the encoder's logger -- says
-exactly when each reading was taken.  Read as lost samples, such rows were dropped: a torque
+columns, a ROS bag exported with one row per message and the other topics' cells empty, a
+torque written on every tenth row of the encoder's logger -- says exactly when each reading
+was taken.  Read as lost samples, such rows were dropped: a torque
 on rows of its own left no row holding every column (refused), and a sparser torque or
 position had the record analysed at its rate (the rotary motor's 100 Hz torque on 1 kHz rows:
 every value but sigma2 undetermined, Fc -67 %, tuning seed 1651).  Here the record keeps the
-torque's rows (or a stream's 2.5x as dense), and each other column takes the last reading before each row
-together with that reading's instant, so that ``bench.slow_stream.filled_forward`` reads it
-between its readings at their own times (or, a command held, as written).
+torque's rows (or a stream's 2.5x as dense), and each other column takes the last reading
+before each row together with that reading's instant, so that
+``bench.slow_stream.filled_forward`` reads it between its readings at their own times (or, a
+command held, as written).
 """
 from __future__ import annotations
 
@@ -20,26 +22,23 @@ import numpy as np
 from bench.records import Record
 from bench.resample import increasing
 from bench.rows import drop_empty_rows, keep_rows
-from bench.slow_stream import MIN_ROWS_PER_READING
+from bench.slow_stream import GAP_INTERVALS, MIN_READINGS, MIN_ROWS_PER_READING
 
 VALUES = ("tau", "q", "qd")
 # A column is a stream of its own where it is empty on at least half the kept rows and its
 # readings are spread among the rows (at least half as many runs of empty cells as
 # readings): a logger's lost samples (1 % of the rows) and a sensor dead for a stretch (one
 # run) stay lost samples, dropped rows, as before.
+# (Fewer than ``MIN_READINGS`` and a column is not read as a stream; across a pause in it of
+# over ``GAP_INTERVALS`` of its intervals the rows are a gap, dropped, not filled.)
 EMPTY_SHARE = 0.5
 SPREAD_SHARE = 0.5
-# fewer readings than this and a column is not read as a stream
-MIN_READINGS = 20
-# Across a pause in a stream longer than this many of its usual intervals, the rows are a gap
-# (lost samples, dropped), not filled: as ``bench.slow_stream`` holds it.
-STALE_INTERVALS = 2.5
 
 
 def sparse_columns(rec: Record) -> dict | None:
-    """{"rows_of": the torque or a denser column, "placed": the sparser streams} where ``rec`` holds
-    streams on rows of their own (module docstring); else None.  Counts only: the time column
-    may still be in the file's unit."""
+    """{"rows_of": the torque or a denser column, "placed": the sparser streams} where ``rec``
+    holds streams on rows of their own (module docstring); else None.  Counts only: the time
+    column may still be in the file's unit."""
     cols = [c for c in VALUES if getattr(rec, c) is not None]
     seen = {c: np.isfinite(np.asarray(getattr(rec, c), dtype=float)) for c in cols}
     rows = np.isfinite(np.asarray(rec.t, dtype=float)) & np.logical_or.reduce([seen[c] for c in cols])
@@ -56,19 +55,21 @@ def sparse_columns(rec: Record) -> dict | None:
     base = "tau" if count["tau"] * MIN_ROWS_PER_READING > count[densest] else densest
     placed = []
     for c in cols:
+        if c == base:
+            continue
         s = seen[c][rows]
-        n = np.count_nonzero(s)
+        n = count[c]
         empty_runs = np.count_nonzero(np.diff(s.astype(np.int8)) == -1) + int(not s[0])
         empty = 1.0 - np.count_nonzero(seen[c] & seen[base] & rows) / count[base]
-        if c != base and n >= MIN_READINGS and empty >= EMPTY_SHARE and empty_runs >= SPREAD_SHARE * n:
+        if n >= MIN_READINGS and empty >= EMPTY_SHARE and empty_runs >= SPREAD_SHARE * n:
             placed.append(c)
     return {"rows_of": base, "placed": placed} if placed else None
 
 
 def onto_kept_rows(rec: Record, name: str) -> tuple[Record, dict]:
     """``rec`` (``reading["joined_streams"]`` set by ``sparse_columns``) on the rows its
-    torque (or a denser stream) was read on, each other column holding the last reading at or before each row, and
-    {column: per row, the instant of the reading it holds}; rows before a stream's first
+    torque (or a denser stream) was read on, each other column holding the last reading at or
+    before each row, and {column: per row, the instant of the reading it holds}; rows before a stream's first
     reading or across a pause in it are dropped as lost samples (counted).  Otherwise the rows
     with an empty cell are dropped as they always were."""
     joined = rec.reading.get("joined_streams")
@@ -89,7 +90,7 @@ def onto_kept_rows(rec: Record, name: str) -> tuple[Record, dict]:
         interval = float(np.median(gaps[gaps > 0])) if np.any(gaps > 0) else 0.0
         k = np.searchsorted(tr, out.t, side="right") - 1
         at = np.maximum(k, 0)
-        fresh = (k >= 0) & (out.t - tr[at] <= STALE_INTERVALS * interval)
+        fresh = (k >= 0) & (out.t - tr[at] <= GAP_INTERVALS * interval)
         setattr(out, c, np.where(fresh, xr[at], np.nan))
         instants[c] = np.where(fresh, tr[at], np.nan)
     kept = drop_empty_rows(out, name)

@@ -36,6 +36,8 @@ HOW = {"readings, interpolated between": ("a slower stream filled forward onto a
                                           "interpolated between its readings for the analysis"),
        "a command held": ("a command the drive held that long (the motion steps with it where it "
                           "changes), used as written")}
+# a record's columns as a technician names them
+WHAT = {"tau": "torque", "q": "position", "qd": "velocity"}
 # a merge of two loggers' clocks (bench.slow_stream.reading_times)
 OWN_CLOCK = ("; its readings keep a clock of their own, each shown on the first row after it, and "
              "were placed at that clock's instants")
@@ -62,10 +64,9 @@ MERGED_REFUSAL = ("; the {what} column is a slower stream ({rate:.4g} Hz) merged
 def refusal_hint(rec: Record) -> str:
     """What to add to a refusal when a column came from a slower stream merged onto the rows
     without its own times (empty otherwise)."""
-    what = {"tau": "torque", "q": "position", "qd": "velocity"}
     merged = [(c, ff) for c, ff in rec.reading.get("filled_forward", {}).items()
               if ff.get("clock") != JOINED_CLOCK and ff.get("read_as") != "a command held"]
-    return "".join(MERGED_REFUSAL.format(what=what[c], rate=ff["rate_hz"]) for c, ff in merged[:1])
+    return "".join(MERGED_REFUSAL.format(what=WHAT[c], rate=ff["rate_hz"]) for c, ff in merged[:1])
 
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
@@ -86,15 +87,14 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(UNWRAPPED_WARNING.format(n=r["turns_unwrapped"]))
     if r.get("time_counter"):
         out.append(COUNTER_WARNING.format(**r["time_counter"]))
-    what = {"tau": "torque", "q": "position", "qd": "velocity"}
     for col, ff in r.get("filled_forward", {}).items():
         if ff.get("clock") == JOINED_CLOCK:
-            out.append(JOINED_WARNING.format(what=what[col], rate=ff["rate_hz"],
-                                             base=what[r["joined_streams"]["rows_of"]],
+            out.append(JOINED_WARNING.format(what=WHAT[col], rate=ff["rate_hz"],
+                                             base=WHAT[r["joined_streams"]["rows_of"]],
                                              how=JOINED_HOW[ff["read_as"]]))
             continue
         out.append(FILLED_FORWARD_WARNING.format(
-            what=what[col], rows=ff["rows_per_reading"], rate=ff["rate_hz"], how=HOW[ff["read_as"]])
+            what=WHAT[col], rows=ff["rows_per_reading"], rate=ff["rate_hz"], how=HOW[ff["read_as"]])
             + (OWN_CLOCK if ff.get("clock", "").startswith("its own") else "")
             + (OWN_CLOCK_ROUGH if ff.get("clock") == NOT_PINNED else ""))
     if r.get("glitches"):

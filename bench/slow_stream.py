@@ -61,6 +61,9 @@ HELD_SHARE = 0.25
 MAX_INTERVAL = 0.05
 # fewer readings than this and the pace says nothing
 MIN_READINGS = 20
+# a pause in a stream's readings longer than this many of its intervals is a gap: not
+# interpolated across
+GAP_INTERVALS = 2.5
 # A stream on a clock of its own (a merge of two loggers) shows each reading on the first row
 # at or after it: up to a row late, at random, which the second derivative amplifies (a 200 Hz
 # position so read named a gear spring on j1-j3 and an inertia error on the rotary motor,
@@ -192,12 +195,12 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float
 
 def _between(t: np.ndarray, x: np.ndarray, starts: np.ndarray, ts: np.ndarray, interval: float) -> np.ndarray:
     """``x`` at every row, interpolated between its readings (first shown on the rows
-    ``starts``, taken at ``ts``); across a gap in the readings (over 2.5 intervals: the faster
+    ``starts``, taken at ``ts``); across a gap in the readings (``GAP_INTERVALS``: the faster
     stream's own) it is held, as written."""
     xs = x[starts]
     out = CubicSpline(ts, xs, extrapolate=False)(t) if len(ts) > 3 else np.interp(t, ts, xs)
     after = np.clip(np.searchsorted(ts, t, side="right"), 1, len(ts) - 1)
-    held = (ts[after] - ts[after - 1] > 2.5 * interval) | (t >= ts[-1]) | ~np.isfinite(out)
+    held = (ts[after] - ts[after - 1] > GAP_INTERVALS * interval) | (t >= ts[-1]) | ~np.isfinite(out)
     out[held] = x[held]
     return out
 

@@ -10,14 +10,8 @@ from bench.joined_streams import sparse_columns
 from bench.readers import read_record
 from bench.records import Record
 from independent_joint import independent_record
+from tests.core.test_slow_stream import _outcome
 from virtual_drives.presets import PRESETS
-
-
-def _outcome(doc: dict, spec) -> tuple:
-    f = spec.friction
-    errors = {k: doc["parameters"][k] / getattr(f, k) - 1 for k in ("Fc", "Fs", "sigma2")}
-    return ([d["effect"] for d in doc["diagnosis"] if d["significant"]], doc["unexplained"]["structured"],
-            max(abs(e) for e in errors.values()), errors)
 
 
 def _csv(rows) -> bytes:
@@ -28,8 +22,8 @@ def _csv(rows) -> bytes:
 
 def test_which_columns_are_streams_of_their_own():
     """Every tenth row, or rows of its own between the other stream's: a stream, placed on the
-    torque's rows (or a stream's with 2.5x its readings).  A logger's lost samples (1 %) and a sensor dead for a stretch stay
-    lost samples (None: their rows are dropped, as before)."""
+    torque's rows (or a stream's with 2.5x its readings).  A logger's lost samples (1 %) and a
+    sensor dead for a stretch stay lost samples (None: their rows are dropped, as before)."""
     rng = np.random.default_rng(9740)
     n = 2000
     t = 1e-3 * np.arange(n)
