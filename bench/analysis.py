@@ -14,6 +14,7 @@ import numpy as np
 
 from bench import inertia_estimate, plots
 from bench.checkpoint import checkpoint
+from bench.clock_room import ClockRoom, placed_in_room
 from bench.coarse_time import spread
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose
 from bench.pruning import drop_absorbers
@@ -42,12 +43,14 @@ class Analysis:
     diagnosis: Diagnosis | None
     name: str = "record"
     plot_files: dict = field(default_factory=dict)
+    clock_room: ClockRoom = field(default_factory=ClockRoom)    # bench.clock_room: a merged clock
 
     # --- the JSON contract -------------------------------------------------------------------
     def report(self) -> dict:
         doc = self.ident.report()
         doc.update(self.reading())
         if self.diagnosis is None:
+            self.clock_room.told(doc)
             return doc
         d = self.diagnosis
         final = d.model.result
@@ -71,6 +74,7 @@ class Analysis:
             at = next((i for i, w in enumerate(before) if w in stale), len(before))
             doc["warnings"] = ([w for w in before[:at] if w not in stale] + own
                                + [w for w in before[at:] if w not in stale])
+        self.clock_room.told(doc)
         doc["diagnosis"] = d.entries()
         doc["final"] = {"effects": d.model.names(),
                         "parameters": {k: float(v) for k, v in d.model.values.items()},
@@ -223,6 +227,7 @@ def _analyze(rec: Record, inertia, add, diagnose_effects: bool, cutoff, name: st
             except NotIdentifiable:
                 raise NotIdentifiable(f"{refused}{refusal_hint(rec)}") from None
             ident.warnings.insert(0, REVERSED_WARNING)
+        ident, rec, room = placed_in_room(ident, rec, name)    # a merged stream's clock
         step = torque_step(rec, ident.data.coulomb)
         ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step, ident.data.held_poses)
         diag = None
@@ -245,7 +250,7 @@ def _analyze(rec: Record, inertia, add, diagnose_effects: bool, cutoff, name: st
     # stopped in the verdict's last steps (~20 % of a j4 analysis after its last fit): a run
     # cancelled then keeps no model either (bench.checkpoint)
     checkpoint()
-    return Analysis(record=rec, ident=ident, diagnosis=diag, name=name)
+    return Analysis(record=rec, ident=ident, diagnosis=diag, name=name, clock_room=room)
 
 
 REVERSED_WARNING = ("the torque column counts positive against the position: at top speed the "

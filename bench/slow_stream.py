@@ -92,6 +92,7 @@ CLOCK_ROOM = 0.25
 JOINED_CLOCK = "the file's: each reading at its own time"
 # the report's word for a clock of its own, pinned by its readings' windows or not
 OWN_CLOCK = "its own, each reading placed in its row"
+READ_BETWEEN = "readings, interpolated between"
 OWN_CLOCK_ROUGH = "its own, not pinned by its readings: each placed in its row on the steadiest clock"
 
 
@@ -136,16 +137,17 @@ def forward_fill_interval(t: np.ndarray, x: np.ndarray, longest: float = MAX_INT
 
 
 def reading_times(t: np.ndarray, starts: np.ndarray, interval: float
-                  ) -> tuple[np.ndarray, float | None, bool]:
+                  ) -> tuple[np.ndarray, float | None, bool, float]:
     """The instants of the readings that show first on the rows ``starts`` (times ``t``), the
-    period of their own clock and whether their windows (after the row before, at the row)
-    pin it (``CLOCK_INSIDE``, ``CLOCK_ROOM``) -- where the readings show a clock of their own;
-    else the rows' own times, None and False.  The first run may have begun before the log:
-    it stays on its row."""
+    period of their own clock, whether their windows (after the row before, at the row) pin
+    it (``CLOCK_INSIDE``, ``CLOCK_ROOM``) and the room [s] they leave it, in whose middle the
+    instants are placed -- where the readings show a clock of their own; else the rows' own
+    times, None, False and 0.  The first run may have begun before the log: it stays on its
+    row."""
     ts = t[starts].copy()
     s = starts[1:]
     if len(s) < MIN_READINGS:
-        return ts, None, False
+        return ts, None, False, 0.0
     hi, lo = t[s], t[s - 1]
     gaps = np.diff(hi)
     row = float(np.median(np.diff(t)))
@@ -157,7 +159,7 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float
     whole = np.round(gaps / row) == apart                   # no row lost between
     usual = np.bincount(apart[whole]).argmax() if whole.any() else 0
     if usual == 0 or not np.any(whole & (apart % usual != 0)):
-        return ts, None, False
+        return ts, None, False, 0.0
     # a reading the same as the one before makes a longer gap
     period = float(np.mean(gaps[gaps < 1.5 * interval]))
     # Each reading is somewhere in its window: the windows' middles scatter about the clock.
@@ -190,7 +192,8 @@ def reading_times(t: np.ndarray, starts: np.ndarray, interval: float
     line = 0.5 * (top + bottom) + period * n
     inside = np.mean((line > lo) & (line <= hi))
     ts[1:] = np.clip(line, np.nextafter(lo, np.inf), hi)
-    return ts, float(period), bool(inside >= CLOCK_INSIDE and abs(top - bottom) <= CLOCK_ROOM * row)
+    return (ts, float(period), bool(inside >= CLOCK_INSIDE and abs(top - bottom) <= CLOCK_ROOM * row),
+            float(max(top - bottom, 0.0)))
 
 
 def _between(t: np.ndarray, x: np.ndarray, starts: np.ndarray, ts: np.ndarray, interval: float) -> np.ndarray:
@@ -231,6 +234,13 @@ def _held_command(t: np.ndarray, q: np.ndarray, stair: np.ndarray, smooth: np.nd
     return t_stat >= HELD_T and (m is None or m <= 0 or c * m >= HELD_SHARE)
 
 
+def slowest_reading_rate(rec: Record) -> float:
+    """The rate [Hz] of the slowest stream read between its readings (``filled_forward``),
+    inf when none: what it did between them is interpolated, not measured."""
+    return min((ff["rate_hz"] for ff in rec.reading.get("filled_forward", {}).values()
+                if ff["read_as"] == READ_BETWEEN), default=float("inf"))
+
+
 def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> Record:
     """``rec``, or a copy whose forward-filled torque, position or velocity
     (``forward_fill_interval``) is interpolated between its readings -- a torque only where it
@@ -256,7 +266,7 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
         if col in (instants or {}):
             at = instants[col][first]
             starts = _run_starts(at)
-            ts, period, pinned = at[starts], None, True
+            ts, period, pinned, room = at[starts], None, True, 0.0
             interval = float(np.median(np.diff(ts))) if len(ts) > 1 else np.inf
             row = float(np.median(steps[steps > 0]))
             if len(ts) < MIN_READINGS or interval > MAX_INTERVAL:
@@ -267,17 +277,19 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
                 continue
             interval, row = hit
             starts = _run_starts(x)
-            ts, period, pinned = reading_times(tu, starts, interval)
+            ts, period, pinned, room = reading_times(tu, starts, interval)
         between = _between(tu, x, starts, ts, interval)
         held = (col == "tau" and _number(m) != 0.0
                 and (said or _held_command(tu, new.get("q", cols["q"]), x, between, interval, m)))
         found[col] = {"rate_hz": 1.0 / (period or interval), "rows_per_reading": (period or interval) / row,
-                      "read_as": "a command held" if held else "readings, interpolated between",
+                      "read_as": "a command held" if held else READ_BETWEEN,
                       # a command held is used as written: on the rows
                       "clock": (JOINED_CLOCK if col in (instants or {})
                                 else OWN_CLOCK if period and pinned and not held
                                 else OWN_CLOCK_ROUGH if period and not held
                                 else "the rows'")}
+        if period and not held:
+            found[col]["clock_room_s"] = room       # bench.clock_room carries it into the fit
         if not held:
             new[col] = between
     if not found:

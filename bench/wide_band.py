@@ -27,10 +27,18 @@ from bench.fitting import predict
 from bench.identify import Identification, identify
 from bench.perfect_model import replay
 from bench.records import Record
+from bench.slow_stream import slowest_reading_rate
 from bench.terms import CONTACT_HZ
 
 WIDEN = 3.0            # the wider band, as a multiple of the default cutoff...
-MAX_BAND = 0.1         # ...at most this fraction of the sample rate (twice choose_cutoff's cap)
+MAX_BAND = 0.1         # ...at most this fraction of the sample rate (twice choose_cutoff's cap)...
+# ...and of a stream's read between its readings (bench.slow_stream), five readings a period of
+# the band's edge: a 200 Hz position on 1 kHz rows (the linear stage under a 6 Hz PID,
+# independent simulator, tuning seed 1720) was widened to 100 Hz and its splines' corners
+# named an 86 Hz spring, while its default band of 40 Hz read Fc within 1 %; at a tenth of
+# the rate a position with its own sampling scattered by 0.3 of a row was widened to 18.6 Hz
+# and named an 8.3 Hz spring on j1 (seed 1722), which 30 Hz, beyond it, did not
+MAX_READING_BAND = 0.2
 MIN_WIDER = 1.5        # below this ratio the wider band adds too little to be worth a fit
 # A spring's term must explain this share of what LuGre leaves at the wider band.  Tuning
 # seeds (1904-1995): gear springs at 11-80 Hz 0.58-0.85 (0.38 on j3 under coloured process
@@ -52,7 +60,7 @@ def wider_band(rec: Record, ident: Identification, min_size: float, artifact_rms
     spring has friction beyond it; None otherwise, or when the band cannot be widened."""
     data = ident.data
     c = data.c
-    wide = min(WIDEN * c.cutoff, MAX_BAND / c.dt)
+    wide = min(WIDEN * c.cutoff, MAX_BAND / c.dt, MAX_READING_BAND * slowest_reading_rate(rec))
     if wide < MIN_WIDER * c.cutoff or data.load_encoder:
         return None
     wide_ident = identify(rec, inertia=ident.inertia, cutoff=wide, name=name)

@@ -89,7 +89,7 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
         x = _merged(t, clock, wave(clock))
         starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
         interval, _ = forward_fill_interval(t, x)
-        ts, found, pinned = reading_times(t, starts, interval)
+        ts, found, pinned, _ = reading_times(t, starts, interval)
         assert pinned and abs(found / period - 1) < 1e-4, (period, found)
         true = clock[np.searchsorted(clock, t[starts[1:]], side="right") - 1]
         late = (ts[1:] - true) / 1e-3                       # in rows
@@ -100,12 +100,12 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
     for rows in (t, np.delete(1e-3 * np.arange(n), 11111)):     # lossy; clean but for one lost row
         every_fifth = _filled(wave(rows), 5)
         starts = np.concatenate(([0], np.nonzero(np.diff(every_fifth))[0] + 1))
-        ts, found, pinned = reading_times(rows, starts, 5e-3)
+        ts, found, pinned, _ = reading_times(rows, starts, 5e-3)
         assert found is None and not pinned and np.array_equal(ts, rows[starts])
     in_step = np.arange(3.7e-4, t[-1], 5e-3)
     x = _merged(t, in_step, wave(in_step))
     starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
-    ts, found, pinned = reading_times(t, starts, 5e-3)
+    ts, found, pinned, _ = reading_times(t, starts, 5e-3)
     assert found is not None and not pinned and abs(found / 5e-3 - 1) < 1e-4, found
     true = in_step[np.searchsorted(in_step, t[starts[1:]], side="right") - 1]
     late, on_rows = (ts[1:] - true) / 1e-3, (t[starts[1:]] - true) / 1e-3     # in rows
