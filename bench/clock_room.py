@@ -55,10 +55,11 @@ class ClockRoom:
             if doc["identifiable"].get(k) and not is_identifiable(doc["parameters"][k], se):
                 doc["identifiable"][k] = False
                 newly.append(k)
-        ff = doc.get("resampling", {}).get("filled_forward", {})
-        for col in self.rooms:
-            if col in ff:
-                ff[col] = dict(ff[col], clock_offset_s=self.offsets[col], clock_offset_se_s=self.offset_se[col])
+        if "filled_forward" in doc.get("resampling", {}):     # a copy: the record's reading stays
+            doc["resampling"]["filled_forward"] = {
+                col: dict(ff, **({"clock_offset_s": self.offsets[col], "clock_offset_se_s": self.offset_se[col]}
+                                 if col in self.rooms else {}))
+                for col, ff in doc["resampling"]["filled_forward"].items()}
         col = max(self.rooms, key=self.rooms.get)
         moved_by = (", ".join(f"{k} by {_share(self.change[k], doc['parameters'][k])}"
                               for k in ("Fc", "Fs", "sigma2")) if None not in self.change.values()

@@ -28,6 +28,7 @@ def test_the_offsets_change_joins_the_uncertainty_and_says_what_is_not_determine
     doc = {"parameters": {k: 1.0 for k in LUGRE_KEYS}, "uncertainty": {k: 0.03 for k in LUGRE_KEYS},
            "identifiable": {k: True for k in LUGRE_KEYS}, "warnings": [],
            "resampling": {"filled_forward": {"q": {"rate_hz": 200.0}}}}
+    reading = doc["resampling"]["filled_forward"]          # the record's own, shared
     doc["uncertainty"]["sigma1"], doc["identifiable"]["sigma1"] = None, False
     room = ClockRoom(rooms={"q": 7e-4}, offsets={"q": 3e-4}, offset_se={"q": 3e-5},
                      change={**{k: 0.0 for k in LUGRE_KEYS}, "Fc": 0.2, "Fs": 0.04})
@@ -37,6 +38,7 @@ def test_the_offsets_change_joins_the_uncertainty_and_says_what_is_not_determine
     assert doc["uncertainty"]["sigma1"] is None
     assert not doc["identifiable"]["Fc"] and doc["identifiable"]["Fs"]
     assert doc["resampling"]["filled_forward"]["q"]["clock_offset_s"] == 3e-4
+    assert reading == {"q": {"rate_hz": 200.0}}
     [w] = doc["warnings"]
     assert "0.7 ms of room" in w and "+0.3 ms" in w and "Fc by 20 %" in w and "Fc is not determined" in w, w
     refused = ClockRoom(rooms={"q": 7e-4}, offsets={"q": 0.0}, offset_se={"q": 7e-4},
