@@ -3,9 +3,11 @@ fitted, and what is left of its uncertainty carried into the parameters'.
 
 A stream merged onto another logger's rows (``bench.slow_stream``) shows each reading on the
 first row at or after it; its own clock is a line through those windows, placed in the middle
-of the room they leave it.  A clock in step with the rows leaves it most of a row: every
-reading may be anywhere in that room, one steady offset between the stream and the rest,
-which a joint whose torque and acceleration nearly cancel feels.  The rotary motor under a
+of the room they leave it.  A clock in step with the rows leaves it most of a row, and a
+stream on the rows' own clock (no clock of its own shows: a clean logger, a drive's value
+updated every few cycles) a whole row: every reading may be anywhere in that room, one steady
+offset between the stream and the rest, which a joint whose torque and acceleration nearly
+cancel feels.  The rotary motor under a
 6 Hz PID, its 200 Hz position 0.8 ms after the rows (independent simulator, tuning seed 1721):
 Fc -55 % in the room's middle, reported determined (standard error 4 %); with the position
 moved across the room, Fc -100 % ... +5 %.  The fit's own error tells the offset: it was
@@ -65,10 +67,10 @@ class ClockRoom:
                               for k in ("Fc", "Fs", "sigma2")) if None not in self.change.values()
                     else "leaves the record not identifiable")
         doc["warnings"].append(
-            f"the rows where the {WHAT[col]}'s readings show leave its own clock {self.rooms[col] * 1e3:.2g} ms "
-            f"of room: they were placed {self.offsets[col] * 1e3:+.2g} ms from its middle, where the "
-            f"fit errs least (standard error {self.offset_se[col] * 1e3:.2g} ms); moving them that "
-            f"much moves {moved_by}, counted in the uncertainty"
+            f"the rows where the {WHAT[col]}'s readings show leave their instants {self.rooms[col] * 1e3:.2g} ms "
+            f"of room (each taken after the row before): they were placed {self.offsets[col] * 1e3:+.2g} ms "
+            f"from its middle, where the fit errs least (standard error {self.offset_se[col] * 1e3:.2g} ms); "
+            f"moving them that much moves {moved_by}, counted in the uncertainty"
             + (f", so {', '.join(newly)} {'is' if len(newly) == 1 else 'are'} not determined by this "
                "record" if newly else ""))
 

@@ -5,7 +5,7 @@ report says it first."""
 from __future__ import annotations
 
 from bench.records import Record
-from bench.slow_stream import JOINED_CLOCK, OWN_CLOCK_ROUGH as NOT_PINNED
+from bench.slow_stream import JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
                       "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
@@ -32,7 +32,7 @@ COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} 
                    "record); it was unwrapped before the analysis")
 
 FILLED_FORWARD_WARNING = "the {what} column changes only every {rows:.3g} rows, at {rate:.4g} Hz: {how}"
-HOW = {"readings, interpolated between": ("a slower stream filled forward onto a faster one's rows, "
+HOW = {READ_BETWEEN: ("a slower stream filled forward onto a faster one's rows, "
                                           "interpolated between its readings for the analysis"),
        "a command held": ("a command the drive held that long (the motion steps with it where it "
                           "changes), used as written")}
@@ -47,7 +47,7 @@ OWN_CLOCK_ROUGH = (" (to within a row: the rows where they show leave that clock
 # streams on rows of their own (bench.joined_streams)
 JOINED_WARNING = ("the {what} column holds readings on rows of its own, at {rate:.4g} Hz, its other cells "
                   "empty: each was placed at its own time on the {base} column's rows, {how}")
-JOINED_HOW = {"readings, interpolated between": "interpolated between its readings for the analysis",
+JOINED_HOW = {READ_BETWEEN: "interpolated between its readings for the analysis",
               "a command held": "held between them as a command the drive held (the motion steps with it)"}
 
 # a refusal on a record with a slower stream merged onto its rows (bench.slow_stream): the merge
