@@ -3,11 +3,9 @@ fitted, and what is left of its uncertainty carried into the parameters'.
 
 A stream merged onto another logger's rows (``bench.slow_stream``) shows each reading on the
 first row at or after it; its own clock is a line through those windows, placed in the middle
-of the room they leave it.  A clock in step with the rows leaves it most of a row, and a
-stream on the rows' own clock (no clock of its own shows: a clean logger, a drive's value
-updated every few cycles) a whole row: every reading may be anywhere in that room, one steady
-offset between the stream and the rest, which a joint whose torque and acceleration nearly
-cancel feels.  The rotary motor under a
+of the room they leave it.  A clock in step with the rows leaves it most of a row: every
+reading may be anywhere in that room, one steady offset between the stream and the rest,
+which a joint whose torque and acceleration nearly cancel feels.  The rotary motor under a
 6 Hz PID, its 200 Hz position 0.8 ms after the rows (independent simulator, tuning seed 1721):
 Fc -55 % in the room's middle, reported determined (standard error 4 %); with the position
 moved across the room, Fc -100 % ... +5 %.  The fit's own error tells the offset: it was

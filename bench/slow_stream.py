@@ -288,22 +288,7 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
                                 else OWN_CLOCK if period and pinned and not held
                                 else OWN_CLOCK_ROUGH if period and not held
                                 else "the rows'")}
-        if not held and period is None and col not in (instants or {}):
-            # on the rows' clock a reading was taken after the row before the one it shows on
-            # (a merge of a clock in step with the rows, a drive's value updated every few
-            # cycles): up to a row late, one steady offset.  Placed in its window's middle;
-            # bench.clock_room fits the offset in that room.  A clean logger's 200 Hz position
-            # under a PID from a clock in step with it (tuning seeds 1746-1750): on the rows a
-            # torque lag named on the rotary motor, j3's Fc -14 %, the linear stage's -3.2 %
-            # (standard error 0.2 %), j2's -6 %, the rotary motor's 100 Hz torque left
-            # structure; placed in the room, nothing named or left, within 3.2 % but the
-            # rotary motor's -6.5 % (and +3 %, -0.1 % reported not determined)
-            s = starts[1:]
-            ts = ts.copy()
-            ts[1:] = 0.5 * (tu[s - 1] + tu[s])
-            between = _between(tu, x, starts, ts, interval)
-            room = row
-        if not held and col not in (instants or {}) and room > 0:
+        if period and not held:
             found[col]["clock_room_s"] = room       # bench.clock_room carries it into the fit
         if not held:
             new[col] = between

@@ -48,20 +48,18 @@ def test_the_offsets_change_joins_the_uncertainty_and_says_what_is_not_determine
     assert all(v is None for v in doc["uncertainty"].values()) and not any(doc["identifiable"].values())
 
 
-@pytest.mark.parametrize("joint,seed,phase,jitter", [("rotary", 9752, 0.85e-3, 0.3), ("rotary", 9753, 0.15e-3, 0.3),
-                                                     ("j3", 9754, 0.8e-3, 0.0), ("linear", 9755, 0.3e-3, 0.0)])
-def test_a_clock_in_step_with_the_rows_is_placed_where_the_fit_errs_least(joint, seed, phase, jitter):
-    """A 200 Hz position merged onto a logger's rows from a clock in step with them, one phase
-    throughout: the jittered lossy logger's rows leave it most of a row of room, and placed in
+@pytest.mark.parametrize("joint,seed,phase", [("rotary", 9752, 0.85e-3), ("rotary", 9753, 0.15e-3)])
+def test_a_clock_in_step_with_the_rows_is_placed_where_the_fit_errs_least(joint, seed, phase):
+    """A 200 Hz position merged onto the jittered lossy logger's rows from a clock in step
+    with them, one phase throughout: the rows leave it most of a row of room, and placed in
     its middle the rotary motor under a 6 Hz PID read Fc -55 %, reported determined (tuning
-    seed 1721, 0.8 ms after the rows); a clean logger's show no clock of its own, and on the
-    rows j3's Fc read -14 % (1747).  Placed where the fit errs least: nothing named or left,
-    Fc, Fs, sigma2 within 5 %, and the report gives the offset and its room."""
+    seed 1721, 0.8 ms after the rows).  Placed where the fit errs least: nothing named or
+    left, Fc, Fs, sigma2 within 5 %, and the report gives the offset and its room."""
     spec = PRESETS[joint]
     dt, n_sub, period = 1e-3, 40, 5e-3
     sine, _ = independent_record(spec, duration=4.0, seed=1)
     rec, path = independent_record(spec, duration=20.0, seed=seed, disturbance=0.01 * spec.friction.Fc,
-                                   jitter=jitter, drop=0.005 if jitter else 0.0, dt=dt, n_sub=n_sub,
+                                   jitter=0.3, drop=0.005, dt=dt, n_sub=n_sub,
                                    pd=(6.0, 0.5 * float(sine.q.max() - sine.q.min()), 1.5))
     clock = np.arange(phase, rec.t[-1], period)
     exact = np.interp(clock, np.arange(len(path)) * (dt / n_sub), path[:, 0])
@@ -70,7 +68,7 @@ def test_a_clock_in_step_with_the_rows_is_placed_where_the_fit_errs_least(joint,
     doc = analyze_record(Record(t=rec.t[keep], tau=rec.tau[keep], q=_merged(rec.t, clock, reading)[keep],
                                 meta={"inertia": spec.inertia, "joint_type": spec.joint_type})).report()
     ff = doc["resampling"]["filled_forward"]["q"]
-    assert 0.5e-3 < ff["clock_room_s"] <= 1.01e-3 and abs(ff["clock_offset_s"]) <= 0.5 * ff["clock_room_s"], ff
+    assert 0.5e-3 < ff["clock_room_s"] <= 1e-3 and abs(ff["clock_offset_s"]) <= 0.5 * ff["clock_room_s"], ff
     assert any("where the fit errs least" in w for w in doc["warnings"]), doc["warnings"]
     named, left, worst, errors = _outcome(doc, spec)
     assert not named and not left and worst < 0.05, (named, left, errors)
