@@ -12,6 +12,9 @@
    with jittered timestamps, dropped samples and stalls (a sine test, and a torque-sensing
    arm's PD log with a friction column), wall time and the process's peak memory, side by
    side with the 60 s record at 1 kHz.
+4. A slower position merged from a clock in step with the rows, whose offset in the room
+   they leave it is fitted (``bench.clock_room``), side by side with the same readings at
+   their own times (``--merged-only``: this row alone).
 """
 from __future__ import annotations
 
@@ -27,6 +30,8 @@ from scipy.integrate import solve_ivp
 
 from bench.analysis import analyze_record
 from bench.identify import identify
+from bench.readers import read_record
+from bench.records import Record
 from virtual_drives import physics
 from virtual_drives.joint import sine_torque
 from virtual_drives.presets import PRESETS
@@ -151,6 +156,40 @@ def static_map_row():
             "in-process", f"{t:.1f} s", "", "<= 60 s")
 
 
+def merged_clock_rows():
+    """A 200 Hz position merged from a clock in step with a jittered logger's 1 kHz rows (the
+    offset in the room they leave it fitted: ``bench.clock_room``), side by side with the same
+    readings at their own times (rows of their own, nothing to fit), 20 s under a 6 Hz PID."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
+    from independent_joint import independent_record
+    rows = []
+    for joint, seed in (("rotary", 7011), ("j1", 7012)):
+        spec = PRESETS[joint]
+        sine, _ = independent_record(spec, duration=4.0, seed=1)
+        rec, path = independent_record(spec, duration=20.0, seed=seed, jitter=0.3, drop=0.005, n_sub=40,
+                                       disturbance=0.01 * spec.friction.Fc,
+                                       pd=(6.0, 0.5 * float(sine.q.max() - sine.q.min()), 1.5))
+        clock = np.arange(0.8e-3, rec.t[-1], 5e-3)
+        q = np.interp(clock, np.arange(len(path)) * (1e-3 / 40), path[:, 0])
+        meta = {"inertia": spec.inertia, "joint_type": spec.joint_type}
+        k = np.searchsorted(clock, rec.t, side="right") - 1
+        keep = k >= 0
+        merged = Record(t=rec.t[keep], tau=rec.tau[keep], q=q[k[keep]], meta=dict(meta))
+        # each stream at its own instants: the torque's rows, the position's between them
+        cell = lambda v: "" if v is None else f"{v:.12g}"
+        rows_own = sorted([(a, b, None) for a, b in zip(rec.t, rec.tau)] + [(a, None, c) for a, c in zip(clock, q)])
+        text = "t,tau,q\n" + "".join(f"{a:.6f},{cell(b)},{cell(c)}\n" for a, b, c in rows_own)
+        own = read_record(text.encode(), name="own_times.csv", inertia=spec.inertia, joint_type=spec.joint_type)
+        t_merged, a_merged = timed(analyze_record, merged, repeat=1)
+        t_own, a_own = timed(analyze_record, own, repeat=1)
+        fc = [100.0 * (a.report()["parameters"]["Fc"] / spec.friction.Fc - 1) for a in (a_merged, a_own)]
+        rows.append((f"analyze + diagnosis, {joint} under a PID, 20 s, a 200 Hz position merged in step "
+                     "(its clock's offset fitted) vs at its own times, in-process",
+                     f"{t_merged:.1f} s vs {t_own:.1f} s ({t_merged / t_own:.1f}x)",
+                     f"Fc {fc[0]:+.1f} % vs {fc[1]:+.1f} %", ""))
+    return rows
+
+
 # a child that runs a command and reports the command's own peak resident memory (the
 # RUSAGE_CHILDREN of a fresh process holds only that command)
 _PEAK = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, capture_output=True); "
@@ -197,11 +236,15 @@ def main():
     print(f"load average {os.getloadavg()[0]:.1f}")
     print("| benchmark | result | accuracy | target |")
     print("|---|---|---|---|")
+    if "--merged-only" in sys.argv:
+        for row in merged_clock_rows():
+            print("| " + " | ".join(row) + " |", flush=True)
+        return
     if "--long-only" in sys.argv:
         for row in long_log_rows():
             print("| " + " | ".join(row) + " |", flush=True)
         return
-    for row in simulation_rows() + analyze_rows() + long_log_rows():
+    for row in simulation_rows() + analyze_rows() + merged_clock_rows() + long_log_rows():
         print("| " + " | ".join(row) + " |", flush=True)
 
 
