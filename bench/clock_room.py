@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from bench.errors import NotIdentifiable
+from bench.errors import InputError
 from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, is_identifiable
 from bench.reading_warnings import WHAT
@@ -122,7 +122,7 @@ def placed_in_room(ident: Identification, rec: Record, name: str
                 try:
                     fits[d] = identify(moved(base, col, d), inertia=ident.inertia,
                                        cutoff=ident.data.c.cutoff, name=name)
-                except NotIdentifiable:
+                except InputError:      # a probe (NotIdentifiable among them): refused there, not fatal
                     fits[d] = None
             return fits[d]
 
@@ -130,7 +130,8 @@ def placed_in_room(ident: Identification, rec: Record, name: str
         err2 = np.array([_err(at(d)) ** 2 for d in grid])
         j = int(np.argmin(err2))
         i = min(max(j, 1), len(grid) - 2)
-        a, b, _ = np.polyfit(grid[i - 1:i + 2], err2[i - 1:i + 2], 2) if np.all(np.isfinite(err2[i - 1:i + 2])) else (0, 0, 0)
+        three = slice(i - 1, i + 2)
+        a, b, _ = np.polyfit(grid[three], err2[three], 2) if np.all(np.isfinite(err2[three])) else (0, 0, 0)
         best = grid[j]
         if a > 0:
             # the parabola's least, kept between the best point's neighbours
