@@ -10,11 +10,12 @@ which a joint whose torque and acceleration nearly cancel feels.  The rotary mot
 Fc -55 % in the room's middle, reported determined (standard error 4 %); with the position
 moved across the room, Fc -100 % ... +5 %.  The fit's own error tells the offset: it was
 least 0.27-0.36 ms later (Fc -3 % ... +5 %), and for a 100 Hz torque 0.37 ms after the rows
-(seed 1727) at the middle, where Fc was right (+21000 % and -63 % at the room's ends).  So
+(seed 1727) at the middle, where Fc was right (3000x and -63 % at the room's ends).  So
 LuGre is fitted at five offsets across the room and at the least error's parabola; the record
 goes on with the stream there.  The offset's uncertainty is where the error has grown by one
-standard error's worth (the fit's effective samples); the parameters' change across it joins
-their standard errors, so a flat error over a sensitive room leaves them undetermined.
+standard error's worth (the fit's effective samples), at least ``OFFSET_SE_ROWS``; the
+parameters' change across it joins their standard errors, so a flat error over a sensitive
+room leaves them undetermined.
 """
 from __future__ import annotations
 
