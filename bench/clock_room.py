@@ -30,7 +30,6 @@ from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, is_identifiable
 from bench.reading_warnings import WHAT
 from bench.records import Record
-from bench.slow_stream import READ_BETWEEN
 
 
 @dataclass
@@ -82,10 +81,10 @@ def _share(change: float, value: float) -> str:
 
 
 def rooms(rec: Record) -> dict:
-    """Per column read between its readings on a clock of its own, the room [s] its rows leave it."""
+    """Per column read between its readings on a clock of its own, the room [s] its rows leave
+    it (``filled_forward`` gives a room to those alone)."""
     return {col: ff["clock_room_s"] for col, ff in rec.reading.get("filled_forward", {}).items()
-            if ff.get("clock_room_s", 0.0) > 0.0 and ff["read_as"] == READ_BETWEEN
-            and getattr(rec, col, None) is not None}
+            if ff.get("clock_room_s", 0.0) > 0.0}
 
 
 def moved(rec: Record, col: str, d: float) -> Record:

@@ -5,7 +5,7 @@ report says it first."""
 from __future__ import annotations
 
 from bench.records import Record
-from bench.slow_stream import JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
+from bench.slow_stream import HELD, JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
                       "{s:.3g} s): left out of the analysis like gaps (bench.standstill), the "
@@ -33,9 +33,9 @@ COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} 
 
 FILLED_FORWARD_WARNING = "the {what} column changes only every {rows:.3g} rows, at {rate:.4g} Hz: {how}"
 HOW = {READ_BETWEEN: ("a slower stream filled forward onto a faster one's rows, "
-                                          "interpolated between its readings for the analysis"),
-       "a command held": ("a command the drive held that long (the motion steps with it where it "
-                          "changes), used as written")}
+                      "interpolated between its readings for the analysis"),
+       HELD: ("a command the drive held that long (the motion steps with it where it "
+              "changes), used as written")}
 # a record's columns as a technician names them
 WHAT = {"tau": "torque", "q": "position", "qd": "velocity"}
 # a merge of two loggers' clocks (bench.slow_stream.reading_times)
@@ -48,7 +48,7 @@ OWN_CLOCK_ROUGH = (" (to within a row: the rows where they show leave that clock
 JOINED_WARNING = ("the {what} column holds readings on rows of its own, at {rate:.4g} Hz, its other cells "
                   "empty: each was placed at its own time on the {base} column's rows, {how}")
 JOINED_HOW = {READ_BETWEEN: "interpolated between its readings for the analysis",
-              "a command held": "held between them as a command the drive held (the motion steps with it)"}
+              HELD: "held between them as a command the drive held (the motion steps with it)"}
 
 # a refusal on a record with a slower stream merged onto its rows (bench.slow_stream): the merge
 # lost the readings' instants, up to a row each, which the second derivative amplifies; with
@@ -65,7 +65,7 @@ def refusal_hint(rec: Record) -> str:
     """What to add to a refusal when a column came from a slower stream merged onto the rows
     without its own times (empty otherwise)."""
     merged = [(c, ff) for c, ff in rec.reading.get("filled_forward", {}).items()
-              if ff.get("clock") != JOINED_CLOCK and ff.get("read_as") != "a command held"]
+              if ff.get("clock") != JOINED_CLOCK and ff.get("read_as") != HELD]
     return "".join(MERGED_REFUSAL.format(what=WHAT[c], rate=ff["rate_hz"]) for c, ff in merged[:1])
 
 

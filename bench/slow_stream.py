@@ -92,7 +92,9 @@ CLOCK_ROOM = 0.25
 JOINED_CLOCK = "the file's: each reading at its own time"
 # the report's word for a clock of its own, pinned by its readings' windows or not
 OWN_CLOCK = "its own, each reading placed in its row"
+# how a column was read (``filled_forward``'s read_as)
 READ_BETWEEN = "readings, interpolated between"
+HELD = "a command held"
 OWN_CLOCK_ROUGH = "its own, not pinned by its readings: each placed in its row on the steadiest clock"
 
 
@@ -282,7 +284,7 @@ def filled_forward(rec: Record, inertia=None, instants: dict | None = None) -> R
         held = (col == "tau" and _number(m) != 0.0
                 and (said or _held_command(tu, new.get("q", cols["q"]), x, between, interval, m)))
         found[col] = {"rate_hz": 1.0 / (period or interval), "rows_per_reading": (period or interval) / row,
-                      "read_as": "a command held" if held else READ_BETWEEN,
+                      "read_as": HELD if held else READ_BETWEEN,
                       # a command held is used as written: on the rows
                       "clock": (JOINED_CLOCK if col in (instants or {})
                                 else OWN_CLOCK if period and pinned and not held

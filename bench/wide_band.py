@@ -32,8 +32,8 @@ from bench.terms import CONTACT_HZ
 
 WIDEN = 3.0            # the wider band, as a multiple of the default cutoff...
 MAX_BAND = 0.1         # ...at most this fraction of the sample rate (twice choose_cutoff's cap)...
-# ...and of a stream's read between its readings (bench.slow_stream), five readings a period of
-# the band's edge: a 200 Hz position on 1 kHz rows (the linear stage under a 6 Hz PID,
+# ...and of the rate of a stream read between its readings (bench.slow_stream), five readings
+# a period of the band's edge: a 200 Hz position on 1 kHz rows (the linear stage under a 6 Hz PID,
 # independent simulator, tuning seed 1720) was widened to 100 Hz and its splines' corners
 # named an 86 Hz spring, while its default band of 40 Hz read Fc within 1 %; at a tenth of
 # the rate a position with its own sampling scattered by 0.3 of a row was widened to 18.6 Hz
