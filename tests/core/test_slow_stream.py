@@ -89,8 +89,8 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
         x = _merged(t, clock, wave(clock))
         starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
         interval, _ = forward_fill_interval(t, x)
-        ts, found, pinned, _ = reading_times(t, starts, interval)
-        assert pinned and abs(found / period - 1) < 1e-4, (period, found)
+        ts, found, pinned, room = reading_times(t, starts, interval)
+        assert pinned and abs(found / period - 1) < 1e-4 and room <= 0.25e-3, (period, found, room)
         true = clock[np.searchsorted(clock, t[starts[1:]], side="right") - 1]
         late = (ts[1:] - true) / 1e-3                       # in rows
         on_rows = (t[starts[1:]] - true) / 1e-3
@@ -105,8 +105,9 @@ def test_a_streams_own_clock_is_found_from_where_its_readings_show():
     in_step = np.arange(3.7e-4, t[-1], 5e-3)
     x = _merged(t, in_step, wave(in_step))
     starts = np.concatenate(([0], np.nonzero(np.diff(x))[0] + 1))
-    ts, found, pinned, _ = reading_times(t, starts, 5e-3)
+    ts, found, pinned, room = reading_times(t, starts, 5e-3)
     assert found is not None and not pinned and abs(found / 5e-3 - 1) < 1e-4, found
+    assert 0.5e-3 < room <= 1e-3, room            # most of a row: bench.clock_room fits the offset
     true = in_step[np.searchsorted(in_step, t[starts[1:]], side="right") - 1]
     late, on_rows = (ts[1:] - true) / 1e-3, (t[starts[1:]] - true) / 1e-3     # in rows
     assert np.std(late) < 0.05 and np.std(late) < 0.2 * np.std(on_rows), (np.std(late), np.std(on_rows))
