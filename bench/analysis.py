@@ -137,7 +137,8 @@ class Analysis:
                           "velocity_from": c.velocity_source,
                           **({"window": r["window"]} if "window" in r else {}),
                           **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {}),
-                          **({"time_counter": r["time_counter"]} if "time_counter" in r else {})},
+                          **({"time_counter": r["time_counter"]} if "time_counter" in r else {}),
+                          **({"own_times": r["own_times"]} if "own_times" in r else {})},
                 "units": {"si": True, "conversions": r.get("units", {}),
                           **({"from_header": r["header_units"]["taken"]} if r.get("header_units") else {})},
                 "resampling": resampling}

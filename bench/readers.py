@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import header_units
+from bench import header_units, own_times
 from bench.coarse_time import spread
 from bench.counters import unwrap_counter
 from bench.errors import InputError
@@ -79,15 +79,20 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
             return _finish(trace, name, fmt, opts, span)
     elif fmt == "mat":
         table, meta = _mat(raw, name)
+        table.update({k: table[v] for k, v in own_times.signal_names(table).items()})
     else:
         table, meta, fmt, units_row = _text(raw, name)
     text_row = units_row == {}          # a row of descriptions under the header, skipped
     units_row = units_row or {}
+    explicit = mapping is not None
     mapping = mapping or header_units.default_mapping(_names(table), ROLES, REQUIRED)
+    own = {}
+    if fmt == "mat":   # signals with time vectors of their own (bench.own_times)
+        table, mapping, own = own_times.join(table, mapping, name, explicit)
     data, stated = {}, {}
     clock, ticks = False, None
     for role, col in mapping.items():
-        key = _column_key(table, col, role, name, explicit=columns is not None)
+        key = _column_key(table, col, role, name, explicit=explicit)
         unit = units_row.get(key) or header_units.unit_in_name(str(key))
         if unit and role in header_units.KEYS:
             stated[role] = unit
@@ -108,6 +113,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["stated_units"] = stated
     if text_row:
         rec.reading["text_row_skipped"] = True
+    if own:
+        rec.reading["own_times"] = own
     return _finish(rec, name, fmt, opts, span)
 
 

@@ -45,8 +45,11 @@ OWN_CLOCK_ROUGH = (" (to within a row: the rows where they show leave that clock
                    "own times, where the logger has them, place them exactly)")
 
 # streams on rows of their own (bench.joined_streams)
-JOINED_WARNING = ("the {what} column holds readings on rows of its own, at {rate:.4g} Hz, its other cells "
-                  "empty: each was placed at its own time on the {base} column's rows, {how}")
+JOINED_WARNING = ("the {what} column {holds}, at {rate:.4g} Hz{empty}: each was placed at its own time "
+                  "on the {base} column's rows, {how}")
+JOINED_HOLDS = ("holds readings on rows of its own", ", its other cells empty")
+# a MATLAB signal with a time vector of its own (bench.own_times)
+OWN_TIMES_HOLDS = ("has a time vector of its own ({key})", "")
 JOINED_HOW = {READ_BETWEEN: "interpolated between its readings for the analysis",
               HELD: "held between them as a command the drive held (the motion steps with it)"}
 
@@ -89,7 +92,9 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(COUNTER_WARNING.format(**r["time_counter"]))
     for col, ff in r.get("filled_forward", {}).items():
         if ff.get("clock") == JOINED_CLOCK:
-            out.append(JOINED_WARNING.format(what=WHAT[col], rate=ff["rate_hz"],
+            key = r.get("own_times", {}).get(col)
+            holds, empty = (OWN_TIMES_HOLDS[0].format(key=key), OWN_TIMES_HOLDS[1]) if key else JOINED_HOLDS
+            out.append(JOINED_WARNING.format(what=WHAT[col], rate=ff["rate_hz"], holds=holds, empty=empty,
                                              base=WHAT[r["joined_streams"]["rows_of"]],
                                              how=JOINED_HOW[ff["read_as"]]))
             continue

@@ -1,0 +1,109 @@
+"""Signals with time vectors of their own, as MATLAB files hold them, joined on their times.
+
+Simulink's To Workspace "Structure With Time" (``q.time``, ``q.signals.values``), a
+timeseries saved as a struct (``q.Time``, ``q.Data``) and the per-topic tables of a ROS bag
+read into MATLAB give each signal its own instants: a 200 Hz encoder beside a 1 kHz torque, or
+two loggers' clocks.  Mapped as columns of one table they were of different lengths (a
+traceback), or of one length on different instants (read as if taken together).  Here each
+mapped signal that has a time vector of its own, other than the time column's, is put on the
+rows of its own instants with the other cells empty -- the table an outer join of the
+loggers' tables on their times would be -- and ``bench.joined_streams`` reads it as it reads
+such a CSV.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from bench.errors import InputError
+
+# a struct's fields that hold its signal's instants, and those that hold its values
+TIME_FIELDS = ("time", "Time", "t", "timestamp", "timestamps")
+VALUE_FIELDS = ("signals.values", "Data", "data", "values")
+JOINED_TIME = "time (joined)"
+
+
+def time_of(table: dict, key: str) -> str | None:
+    """The key of ``key``'s own time vector: a time field of the struct holding it (or of a
+    struct above, or of ``key`` itself as ``signal_names`` names a struct), of its length;
+    None when it has none."""
+    n = len(table[key])
+    parts = re.sub(r"\(\d+\)$", "", key).split(".")
+    while parts:
+        for f in TIME_FIELDS:
+            k = ".".join(parts + [f])
+            if k != key and k in table and len(table[k]) == n:
+                return k
+        parts.pop()
+    return None
+
+
+def signal_names(table: dict) -> dict:
+    """{struct name: its values' key} for structs holding one signal and its time (``q`` for
+    ``q.signals.values``), so that ``--columns q=q`` or no mapping at all reaches them."""
+    out = {}
+    for key in table:
+        for f in VALUE_FIELDS:
+            if key.endswith("." + f):
+                struct = key[: -len(f) - 1]
+                if struct not in table and time_of(table, key):
+                    out[struct] = key
+    return out
+
+
+def join(table: dict, mapping: dict, name: str, explicit: bool) -> tuple[dict, dict, dict]:
+    """(table, mapping, {role: its time's key}) with each mapped signal that has time of its
+    own on rows of its own instants (module docstring); the table unchanged when none has."""
+    cols = {role: col for role, col in mapping.items() if col in table}
+    t_col = cols.get("t")
+    own = {}
+    for role, col in cols.items():
+        if role == "t":
+            continue
+        tk = time_of(table, col)
+        same = t_col is not None and tk is not None and (
+            tk == t_col or np.array_equal(np.asarray(table[tk]), np.asarray(table[t_col])))
+        if tk is not None and not same:
+            own[role] = tk
+    # with no time column mapped, signals that all bring their own instants take their union
+    every = all(r in own for r in cols if r != "t")
+    if not own or (t_col is None and (explicit or not every)):
+        _same_lengths(table, cols, name)
+        return table, mapping, {}
+    stamps = {role: np.asarray(table[own[role]], dtype=float) for role in own}
+    if t_col is not None:
+        base = np.asarray(table[t_col], dtype=float)
+        for role in cols:
+            if role not in own and role != "t":
+                stamps[role] = base
+    for role, ts in stamps.items():
+        if len(ts) != len(table[cols[role]]):
+            raise InputError(f"{name}: {cols[role]!r} has {len(table[cols[role]])} values but its "
+                             f"time {t_col!r} has {len(ts)}; give it a time of its own (a struct "
+                             "with a 'time' field, as Simulink's To Workspace writes)")
+        bad = np.flatnonzero(np.diff(ts) < 0)
+        if len(bad):
+            tk = own.get(role, t_col)
+            raise InputError(f"{name}: time {tk!r} decreases at sample {bad[0] + 2}")
+    union = np.unique(np.concatenate(list(stamps.values())))
+    joined = {JOINED_TIME: union}
+    for role, ts in stamps.items():
+        col = np.full(len(union), np.nan)
+        # a repeated instant keeps its first reading (np.unique's first index)
+        ts_u, first = np.unique(ts, return_index=True)
+        col[np.searchsorted(union, ts_u)] = np.asarray(table[cols[role]], dtype=float)[first]
+        joined[cols[role]] = col
+    # the time column says where its rows came from: "tau.time + q.time"
+    t_name = " + ".join(dict.fromkeys(([t_col] if t_col else []) + list(own.values())))
+    joined = {t_name if k == JOINED_TIME else k: v for k, v in joined.items()}
+    return joined, {**mapping, "t": t_name}, own
+
+
+def _same_lengths(table: dict, cols: dict, name: str) -> None:
+    lengths = {col: len(table[col]) for col in cols.values()}
+    if len(set(lengths.values())) > 1:
+        shown = ", ".join(f"{c!r} {n}" for c, n in lengths.items())
+        raise InputError(f"{name}: the mapped variables differ in length ({shown}); give each "
+                         "signal its own time (a struct with a 'time' field, as Simulink's To "
+                         "Workspace writes) or map variables of one length")
