@@ -55,6 +55,8 @@ def signal_names(table: dict) -> dict:
 def join(table: dict, mapping: dict, name: str, explicit: bool) -> tuple[dict, dict, dict]:
     """(table, mapping, {role: its time's key}) with each mapped signal that has time of its
     own on rows of its own instants (module docstring); the table unchanged when none has."""
+    if any(col not in table for role, col in mapping.items() if explicit or role != "t"):
+        return table, mapping, {}     # the reader names the missing column among the file's
     cols = {role: col for role, col in mapping.items() if col in table}
     t_col = cols.get("t")
     own = {}
