@@ -203,7 +203,8 @@ def test_an_analysis_its_client_gave_up_on_frees_the_worker(live, operator):
 
 def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path):
     """A logger's file with its own column names and units, as Parquet (by content type) and
-    as MATLAB .mat (application/octet-stream: told by its magic bytes)."""
+    as MATLAB .mat (application/octet-stream: told by its magic bytes), whose signals may
+    bring times of their own."""
     import io
 
     import numpy as np
@@ -242,6 +243,20 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
         r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, **bad),
                           headers={"content-type": "application/octet-stream"}, timeout=60)
         assert r.status_code == 422 and expect in r.json()["detail"] and "\n" not in r.json()["detail"], r.text
+    # MATLAB signals with times of their own (bench.own_times): joined on them; without, 422
+    sws = lambda t, v: {"time": t, "signals": {"values": v.reshape(-1, 1), "dimensions": 1}}
+    buf = io.BytesIO()
+    savemat(buf, {"trq": sws(rec.t, cols["motor_torque_mNm"]), "ang": sws(rec.t[::2], cols["angle_deg"][::2])})
+    own = dict(params, columns="t=trq.time,tau=trq,q=ang")
+    r = operator.post("/analyze", content=buf.getvalue(), params=own,
+                      headers={"content-type": "application/x-matlab-data"}, timeout=180)
+    assert r.status_code == 200 and r.json()["input"]["own_times"] == {"q": "ang.time"}, r.text
+    assert abs(r.json()["parameters"]["Fc"] / spec.friction.Fc - 1) < 0.05, r.json()["parameters"]
+    buf = io.BytesIO()
+    savemat(buf, {"time": rec.t, "trq": cols["motor_torque_mNm"], "ang": cols["angle_deg"][::2]})
+    r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, columns="t=time,tau=trq,q=ang"),
+                      headers={"content-type": "application/x-matlab-data"}, timeout=60)
+    assert r.status_code == 422 and "differ in length" in r.json()["detail"], r.text
 
 
 def test_analyze_a_logger_file_stating_its_units_with_a_wrapping_counter_and_angle(operator):
