@@ -113,7 +113,7 @@ _BINARIES = {"application/vnd.apache.parquet": ".parquet", "application/x-parque
 async def analyze(request: Request, inertia: Optional[str] = Query(None, max_length=40,
                                                   description="M_jj [SI]; 0: the torque column is the friction; "
                                                               "estimate: read it off the record"),
-                  columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
+                  columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]; NAME@TIME: a column with a time column of its own"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   time_unit: Optional[str] = Query(None, pattern="^(s|ms|us|ns)$", description="numeric time's unit (default s)"),
                   window: Optional[str] = Query(None, max_length=60, description="START:END seconds from the first sample"),

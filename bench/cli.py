@@ -170,7 +170,7 @@ def _inertia_option(text: str | None) -> float | str | None:
 @app.command()
 def analyze(
     file: Path = typer.Argument(..., help="record: CSV (any delimiter; # metadata lines), Parquet or MATLAB .mat"),
-    columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]"),
+    columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]; NAME@TIME: a column with a time column of its own"),
     inertia: Optional[str] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction; estimate: read it off the record"),
     joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
     time_unit: Optional[str] = typer.Option(None, help="s, ms, us or ns (numeric time; default s), or K*UNIT (25*ns: 40 MHz ticks)"),

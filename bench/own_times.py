@@ -8,7 +8,8 @@ traceback), or of one length on different instants (read as if taken together). 
 mapped signal that has a time vector of its own, other than the time column's, is put on the
 rows of its own instants with the other cells empty -- the table an outer join of the
 loggers' tables on their times would be -- and ``bench.joined_streams`` reads it as it reads
-such a CSV.
+such a CSV.  In any format a mapped column may name its time column itself
+(``--columns q=q@t_q``), as a scope's or a spreadsheet's side-by-side export has them.
 """
 from __future__ import annotations
 
@@ -52,16 +53,49 @@ def signal_names(table: dict) -> dict:
     return out
 
 
-def join(table: dict, mapping: dict, name: str, explicit: bool) -> tuple[dict, dict, dict]:
+def _names(table) -> list:
+    return list(table.column_names) if hasattr(table, "column_names") else list(table)
+
+
+def _floats(table, key, name: str) -> np.ndarray:
+    col = table.column(key).to_numpy(zero_copy_only=False) if hasattr(table, "column_names") else table[key]
+    try:
+        return np.asarray(col, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: column {key!r} is not numeric") from None
+
+
+def given_times(mapping: dict, names: list) -> tuple[dict, dict]:
+    """``--columns q=NAME@TIME`` -> ({'q': NAME}, {'q': TIME}): a column with a time column of
+    its own, as a spreadsheet's or a scope's side-by-side export has (``t_q, q``).  A name
+    that holds '@' itself stays a name."""
+    out, given = dict(mapping), {}
+    for role, col in mapping.items():
+        if role != "t" and col not in names and "@" in col:
+            name, _, tk = col.rpartition("@")
+            out[role], given[role] = name.strip(), tk.strip()
+    return out, given
+
+
+def join(table, mapping: dict, name: str, explicit: bool, given: dict | None = None) -> tuple:
     """(table, mapping, {role: its time's key}) with each mapped signal that has time of its
-    own on rows of its own instants (module docstring); the table unchanged when none has."""
-    if any(col not in table for role, col in mapping.items() if explicit or role != "t"):
+    own (``given``: named in the mapping; else a struct's) on rows of its own instants
+    (module docstring); the table unchanged when none has."""
+    given = dict(given or {})
+    names = set(_names(table))
+    for role, tk in given.items():
+        if tk not in names:
+            shown = ", ".join(list(_names(table))[:40])
+            raise InputError(f"{name}: no column {tk!r} (the time of {role}); the file's columns: {shown}")
+    if any(col not in names for role, col in mapping.items() if explicit or role != "t"):
         return table, mapping, {}     # the reader names the missing column among the file's
-    cols = {role: col for role, col in mapping.items() if col in table}
+    if not given and hasattr(table, "column_names"):
+        return table, mapping, {}     # a CSV's or Parquet's columns share their rows
+    cols = {role: col for role, col in mapping.items() if col in names}
     t_col = cols.get("t")
-    own = {}
+    own = dict(given)
     for role, col in cols.items():
-        if role == "t":
+        if role == "t" or role in own or hasattr(table, "column_names"):
             continue
         tk = time_of(table, col)
         same = t_col is not None and tk is not None and (
@@ -73,28 +107,34 @@ def join(table: dict, mapping: dict, name: str, explicit: bool) -> tuple[dict, d
     if not own or (t_col is None and (explicit or not every)):
         _same_lengths(table, cols, name)
         return table, mapping, {}
-    stamps = {role: np.asarray(table[own[role]], dtype=float) for role in own}
+    stamps = {role: _floats(table, own[role], name) for role in own}
     if t_col is not None:
-        base = np.asarray(table[t_col], dtype=float)
+        base = _floats(table, t_col, name)
         for role in cols:
             if role not in own and role != "t":
                 stamps[role] = base
+    values = {}
     for role, ts in stamps.items():
-        if len(ts) != len(table[cols[role]]):
-            raise InputError(f"{name}: {cols[role]!r} has {len(table[cols[role]])} values but its "
+        v = _floats(table, cols[role], name)
+        if len(ts) != len(v):
+            raise InputError(f"{name}: {cols[role]!r} has {len(v)} values but its "
                              f"time {t_col!r} has {len(ts)}; give it a time of its own (a struct "
                              "with a 'time' field, as Simulink's To Workspace writes)")
+        # a side-by-side export's shorter columns end in empty cells: not readings
+        keep = np.isfinite(ts) & (np.isfinite(v) if role in own else True)
+        ts, v = ts[keep], v[keep]
         bad = np.flatnonzero(np.diff(ts) < 0)
         if len(bad):
             tk = own.get(role, t_col)
             raise InputError(f"{name}: time {tk!r} decreases at sample {bad[0] + 2}")
+        stamps[role], values[role] = ts, v
     union = np.unique(np.concatenate(list(stamps.values())))
     joined = {JOINED_TIME: union}
     for role, ts in stamps.items():
         col = np.full(len(union), np.nan)
         # a repeated instant keeps its first reading (np.unique's first index)
         ts_u, first = np.unique(ts, return_index=True)
-        col[np.searchsorted(union, ts_u)] = np.asarray(table[cols[role]], dtype=float)[first]
+        col[np.searchsorted(union, ts_u)] = values[role][first]
         joined[cols[role]] = col
     # the time column says where its rows came from: "tau.time + q.time"
     t_name = " + ".join(dict.fromkeys(([t_col] if t_col else []) + list(own.values())))

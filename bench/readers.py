@@ -86,9 +86,10 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     units_row = units_row or {}
     explicit = mapping is not None
     mapping = mapping or header_units.default_mapping(_names(table), ROLES, REQUIRED)
+    mapping, given = own_times.given_times(mapping, _names(table))
     own = {}
-    if fmt == "mat":   # signals with time vectors of their own (bench.own_times)
-        table, mapping, own = own_times.join(table, mapping, name, explicit)
+    if fmt == "mat" or given:   # signals with times of their own (bench.own_times)
+        table, mapping, own = own_times.join(table, mapping, name, explicit, given)
     data, stated = {}, {}
     clock, ticks = False, None
     for role, col in mapping.items():

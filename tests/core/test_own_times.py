@@ -115,3 +115,25 @@ def test_signals_of_different_lengths_without_times_are_one_line(tmp_path):
                                     "q": _structure_with_time(back, np.cos(back))})
     with pytest.raises(InputError, match=r"back.mat: time 'q.time' decreases at sample 51"):
         read_record(tmp_path / "back.mat", inertia=1)
+
+
+def test_a_csv_column_with_a_time_column_of_its_own(tmp_path):
+    """A side-by-side export (``t_tau, tau, t_q, q``, the position's columns shorter and empty
+    at the end): ``q=q@t_q`` reads each position at its own time.  Mapped as ``q=q`` it was
+    placed on the torque's rows, its empty tail dropped as lost rows, and the record refused
+    as never reaching sliding."""
+    spec = PRESETS["j2"]
+    rec, _ = independent_record(spec, duration=12.0, seed=9762, dt=1e-3)
+    k = np.arange(0, len(rec.t), 5)
+    rows = ["t_tau,tau,t_q,q"] + [
+        f"{rec.t[i]:.6f},{rec.tau[i]:.8g}," + (f"{rec.t[k[i]]:.6f},{rec.q[k[i]]:.10g}" if i < len(k) else ",")
+        for i in range(len(rec.t))]
+    (tmp_path / "side.csv").write_text("\n".join(rows) + "\n")
+    read = read_record(tmp_path / "side.csv", columns="t=t_tau,tau=tau,q=q@t_q", inertia=spec.inertia,
+                       joint_type=spec.joint_type)
+    assert read.reading["own_times"] == {"q": "t_q"} and read.reading["columns"]["q"] == "q"
+    assert read.t[-1] > 11.9
+    named, left, worst, errors = _outcome(analyze_record(read).report(), spec)
+    assert not named and not left and worst < 0.05, (named, left, errors)
+    with pytest.raises(InputError, match=r"no column 'tq' \(the time of q\); the file's columns: t_tau, tau, t_q, q"):
+        read_record(tmp_path / "side.csv", columns="t=t_tau,tau=tau,q=q@tq", inertia=1.0)
