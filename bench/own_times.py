@@ -22,7 +22,6 @@ from bench.errors import InputError
 # a struct's fields that hold its signal's instants, and those that hold its values
 TIME_FIELDS = ("time", "Time", "t", "timestamp", "timestamps")
 VALUE_FIELDS = ("signals.values", "Data", "data", "values")
-JOINED_TIME = "time (joined)"
 
 
 def time_of(table: dict, key: str) -> str | None:
@@ -53,12 +52,8 @@ def signal_names(table: dict) -> dict:
     return out
 
 
-def _names(table) -> list:
-    return list(table.column_names) if hasattr(table, "column_names") else list(table)
-
-
 def _floats(table, key, name: str) -> np.ndarray:
-    col = table.column(key).to_numpy(zero_copy_only=False) if hasattr(table, "column_names") else table[key]
+    col = table[key] if isinstance(table, dict) else table.column(key).to_numpy(zero_copy_only=False)
     try:
         return np.asarray(col, dtype=float)
     except (TypeError, ValueError):
@@ -77,25 +72,23 @@ def given_times(mapping: dict, names: list) -> tuple[dict, dict]:
     return out, given
 
 
-def join(table, mapping: dict, name: str, explicit: bool, given: dict | None = None) -> tuple:
+def join(table, names: list, mapping: dict, name: str, explicit: bool, given: dict) -> tuple:
     """(table, mapping, {role: its time's key}) with each mapped signal that has time of its
-    own (``given``: named in the mapping; else a struct's) on rows of its own instants
-    (module docstring); the table unchanged when none has."""
-    given = dict(given or {})
-    names = set(_names(table))
+    own (``given``: named in the mapping; in a MATLAB file's dict, also a struct's) on rows of
+    its own instants (module docstring); the table unchanged when none has.  ``names``: the
+    table's column names."""
     for role, tk in given.items():
         if tk not in names:
-            shown = ", ".join(list(_names(table))[:40])
+            shown = ", ".join(names[:40])
             raise InputError(f"{name}: no column {tk!r} (the time of {role}); the file's columns: {shown}")
     if any(col not in names for role, col in mapping.items() if explicit or role != "t"):
         return table, mapping, {}     # the reader names the missing column among the file's
-    if not given and hasattr(table, "column_names"):
-        return table, mapping, {}     # a CSV's or Parquet's columns share their rows
+    structs = isinstance(table, dict)   # a CSV's or Parquet's columns share their rows
     cols = {role: col for role, col in mapping.items() if col in names}
     t_col = cols.get("t")
     own = dict(given)
     for role, col in cols.items():
-        if role == "t" or role in own or hasattr(table, "column_names"):
+        if role == "t" or role in own or not structs:
             continue
         tk = time_of(table, col)
         same = t_col is not None and tk is not None and (
@@ -129,16 +122,15 @@ def join(table, mapping: dict, name: str, explicit: bool, given: dict | None = N
             raise InputError(f"{name}: time {tk!r} decreases at sample {bad[0] + 2}")
         stamps[role], values[role] = ts, v
     union = np.unique(np.concatenate(list(stamps.values())))
-    joined = {JOINED_TIME: union}
+    # the time column says where its rows came from: "tau.time + q.time"
+    t_name = " + ".join(dict.fromkeys(([t_col] if t_col else []) + list(own.values())))
+    joined = {t_name: union}
     for role, ts in stamps.items():
         col = np.full(len(union), np.nan)
         # a repeated instant keeps its first reading (np.unique's first index)
         ts_u, first = np.unique(ts, return_index=True)
         col[np.searchsorted(union, ts_u)] = values[role][first]
         joined[cols[role]] = col
-    # the time column says where its rows came from: "tau.time + q.time"
-    t_name = " + ".join(dict.fromkeys(([t_col] if t_col else []) + list(own.values())))
-    joined = {t_name if k == JOINED_TIME else k: v for k, v in joined.items()}
     return joined, {**mapping, "t": t_name}, own
 
 

@@ -85,11 +85,12 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     text_row = units_row == {}          # a row of descriptions under the header, skipped
     units_row = units_row or {}
     explicit = mapping is not None
-    mapping = mapping or header_units.default_mapping(_names(table), ROLES, REQUIRED)
-    mapping, given = own_times.given_times(mapping, _names(table))
+    names = _names(table)
+    mapping = mapping or header_units.default_mapping(names, ROLES, REQUIRED)
+    mapping, given = own_times.given_times(mapping, names)
     own = {}
     if fmt == "mat" or given:   # signals with times of their own (bench.own_times)
-        table, mapping, own = own_times.join(table, mapping, name, explicit, given)
+        table, mapping, own = own_times.join(table, names, mapping, name, explicit, given)
     data, stated = {}, {}
     clock, ticks = False, None
     for role, col in mapping.items():

@@ -48,7 +48,7 @@ OWN_CLOCK_ROUGH = (" (to within a row: the rows where they show leave that clock
 JOINED_WARNING = ("the {what} column {holds}, at {rate:.4g} Hz{empty}: each was placed at its own time "
                   "on the {base} column's rows, {how}")
 JOINED_HOLDS = ("holds readings on rows of its own", ", its other cells empty")
-# a MATLAB signal with a time vector of its own (bench.own_times)
+# a signal with a time of its own: a MATLAB struct's, or a column's named by NAME@TIME (bench.own_times)
 OWN_TIMES_HOLDS = ("has a time vector of its own ({key})", "")
 JOINED_HOW = {READ_BETWEEN: "interpolated between its readings for the analysis",
               HELD: "held between them as a command the drive held (the motion steps with it)"}
