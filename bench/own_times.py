@@ -141,3 +141,51 @@ def _same_lengths(table: dict, cols: dict, name: str) -> None:
         raise InputError(f"{name}: the mapped variables differ in length ({shown}); give each "
                          "signal its own time (a struct with a 'time' field, as Simulink's To "
                          "Workspace writes) or map variables of one length")
+
+
+def unnamed_time(table, names: list, mapping: dict, name: str) -> None:
+    """A side-by-side export mapped without ``@TIME``: a value column filled on a leading run
+    of rows other than the time column's, beside an unmapped column filled on exactly those
+    rows that increases, is that signal's own time.  Read on the time column's rows it was
+    placed at the wrong instants and the record refused as never reaching sliding, with advice
+    to excite harder: say what the file holds instead."""
+    cols = {role: col for role, col in mapping.items() if col in names}
+    if "t" not in cols:
+        return
+    floats = {}
+
+    def get(col):
+        if col not in floats:
+            try:
+                floats[col] = _floats(table, col, name)
+            except InputError:      # clock-time strings, labels: not a time this can compare
+                floats[col] = None
+        return floats[col]
+
+    base = get(cols["t"])
+    if base is None:
+        return
+    run_t = _leading_run(base)
+    for role, col in cols.items():
+        v = get(col) if role != "t" else None
+        n = _leading_run(v) if v is not None else None
+        if n is None or n < 3 or n == run_t:
+            continue
+        for other in names:
+            c = get(other) if other not in cols.values() else None
+            if c is None or _leading_run(c) != n or not np.all(np.diff(c[:n]) > 0):
+                continue
+            if run_t is not None and run_t >= n and np.allclose(c[:n], base[:n]):
+                continue        # the time column's own instants: nothing to say
+            rows = f"{run_t} rows" if run_t is not None else "other rows"
+            raise InputError(
+                f"{name}: {col!r} fills its first {n} rows and the time {cols['t']!r} {rows}; "
+                f"{other!r} rises on exactly those {n} rows, {col!r}'s own time as a side-by-side "
+                f"export has it: map it as {role}={col}@{other}")
+
+
+def _leading_run(values: np.ndarray) -> int | None:
+    """How many leading cells hold numbers when every later one is empty; None otherwise."""
+    ok = np.isfinite(values)
+    k = int(ok.sum())
+    return k if ok[:k].all() else None

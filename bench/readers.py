@@ -91,6 +91,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     own = {}
     if fmt == "mat" or given:   # signals with times of their own (bench.own_times)
         table, mapping, own = own_times.join(table, names, mapping, name, explicit, given)
+    else:
+        own_times.unnamed_time(table, names, mapping, name)
     data, stated = {}, {}
     clock, ticks = False, None
     for role, col in mapping.items():

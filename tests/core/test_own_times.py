@@ -137,3 +137,25 @@ def test_a_csv_column_with_a_time_column_of_its_own(tmp_path):
     assert not named and not left and worst < 0.05, (named, left, errors)
     with pytest.raises(InputError, match=r"no column 'tq' \(the time of q\); the file's columns: t_tau, tau, t_q, q"):
         read_record(tmp_path / "side.csv", columns="t=t_tau,tau=tau,q=q@tq", inertia=1.0)
+    # mapped without @t_q, as before: one line saying what the file holds, not "never reaches
+    # sliding" with advice to excite harder
+    with pytest.raises(InputError, match=r"'q' fills its first 2400 rows and the time 't_tau' 12000 "
+                                         r"rows; 't_q' rises on exactly those 2400 rows.*map it as q=q@t_q"):
+        read_record(tmp_path / "side.csv", columns="t=t_tau,tau=tau,q=q", inertia=spec.inertia)
+
+
+def test_a_second_time_column_alone_is_not_taken_for_an_own_time(tmp_path):
+    """What a side-by-side export is not: a logger's second clock on every row (a host's
+    receive time beside the drive's), and a position column whose empty tail sits beside the
+    time column's own instants.  Both are read as they were."""
+    t = np.arange(3000) / 1e3
+    q = 0.3 * np.sin(2 * np.pi * t)
+    rows = ["t,t_host,tau,q"] + [f"{t[i]:.6f},{t[i] + 0.0123 + 1e-4 * (i % 3):.6f},{np.cos(2 * np.pi * t[i]):.6f},{q[i]:.8f}"
+                                 for i in range(len(t))]
+    (tmp_path / "host.csv").write_text("\n".join(rows) + "\n")
+    assert len(read_record(tmp_path / "host.csv", inertia=0.1).t) == 3000
+    rows = ["t,tau,t_q,q"] + [f"{t[i]:.6f},{np.cos(2 * np.pi * t[i]):.6f}," + (f"{t[i]:.6f},{q[i]:.8f}" if i < 2500 else ",")
+                              for i in range(len(t))]
+    (tmp_path / "tail.csv").write_text("\n".join(rows) + "\n")
+    read = read_record(tmp_path / "tail.csv", inertia=0.1)
+    assert len(read.t) == 2500 and read.reading["empty_rows"] == 500
