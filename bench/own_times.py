@@ -60,6 +60,50 @@ def _floats(table, key, name: str) -> np.ndarray:
         raise InputError(f"{name}: column {key!r} is not numeric") from None
 
 
+def _instants(table, key, name: str) -> np.ndarray:
+    """A time column as numbers, or as datetime64[ns] where it holds clock times (Arrow's
+    timestamps, ISO strings; empty cells NaT) -- the kinds the reader takes for t."""
+    col = table[key] if isinstance(table, dict) else table.column(key)
+    if hasattr(col, "type"):       # an Arrow column
+        import pyarrow as pa
+        if pa.types.is_timestamp(col.type):
+            return col.cast(pa.timestamp("ns")).to_numpy(zero_copy_only=False).astype("datetime64[ns]")
+        col = col.to_numpy(zero_copy_only=False)
+    arr = np.asarray(col)
+    if arr.dtype.kind == "M":
+        return arr.astype("datetime64[ns]")
+    try:
+        return np.asarray(arr, dtype=float)
+    except (TypeError, ValueError):
+        pass
+    try:
+        return np.array(arr, dtype="datetime64[ns]")
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: column {key!r} is not numeric (nor clock times)") from None
+
+
+def _seconds(stamps: dict, keys: dict, name: str) -> tuple[dict, np.datetime64 | None]:
+    """Clock times as seconds from one epoch, the earliest instant of them all (float
+    seconds since 1970 keep only a quarter of a microsecond); numbers as they are.  The two
+    kinds together have no common origin: one line."""
+    clock = {role: ts.dtype.kind == "M" for role, ts in stamps.items()}
+    if not any(clock.values()):
+        return stamps, None
+    if not all(clock.values()):
+        a = next(keys[r] for r, c in clock.items() if c)
+        b = next(keys[r] for r, c in clock.items() if not c)
+        raise InputError(f"{name}: time {a!r} holds clock times and {b!r} numbers; give the "
+                         "times in one kind, so that they share an origin")
+    valid = [ts[~np.isnat(ts)] for ts in stamps.values()]
+    epoch = min(v.min() for v in valid if len(v))
+    out = {}
+    for role, ts in stamps.items():
+        sec = (ts - epoch).astype(np.int64) * 1e-9
+        sec[np.isnat(ts)] = np.nan
+        out[role] = sec
+    return out, epoch
+
+
 def given_times(mapping: dict, names: list) -> tuple[dict, dict]:
     """``--columns q=NAME@TIME`` -> ({'q': NAME}, {'q': TIME}): a column with a time column of
     its own, as a spreadsheet's or a scope's side-by-side export has (``t_q, q``).  A name
@@ -100,31 +144,31 @@ def join(table, names: list, mapping: dict, name: str, explicit: bool, given: di
     if not own or (t_col is None and (explicit or not every)):
         _same_lengths(table, cols, name)
         return table, mapping, {}
-    stamps = {role: _floats(table, own[role], name) for role in own}
+    keys = dict(own)
     if t_col is not None:
-        base = _floats(table, t_col, name)
         for role in cols:
             if role not in own and role != "t":
-                stamps[role] = base
+                keys[role] = t_col
+    stamps, epoch = _seconds({role: _instants(table, tk, name) for role, tk in keys.items()}, keys, name)
     values = {}
     for role, ts in stamps.items():
         v = _floats(table, cols[role], name)
         if len(ts) != len(v):
             raise InputError(f"{name}: {cols[role]!r} has {len(v)} values but its "
-                             f"time {t_col!r} has {len(ts)}; give it a time of its own (a struct "
+                             f"time {keys[role]!r} has {len(ts)}; give it a time of its own (a struct "
                              "with a 'time' field, as Simulink's To Workspace writes)")
         # a side-by-side export's shorter columns end in empty cells: not readings
         keep = np.isfinite(ts) & (np.isfinite(v) if role in own else True)
         ts, v = ts[keep], v[keep]
         bad = np.flatnonzero(np.diff(ts) < 0)
         if len(bad):
-            tk = own.get(role, t_col)
-            raise InputError(f"{name}: time {tk!r} decreases at sample {bad[0] + 2}")
+            raise InputError(f"{name}: time {keys[role]!r} decreases at sample {bad[0] + 2}")
         stamps[role], values[role] = ts, v
     union = np.unique(np.concatenate(list(stamps.values())))
     # the time column says where its rows came from: "tau.time + q.time"
     t_name = " + ".join(dict.fromkeys(([t_col] if t_col else []) + list(own.values())))
-    joined = {t_name: union}
+    # clock times stay clock times: the reader takes them as seconds, with no time unit
+    joined = {t_name: union if epoch is None else epoch + np.round(union * 1e9).astype("timedelta64[ns]")}
     for role, ts in stamps.items():
         col = np.full(len(union), np.nan)
         # a repeated instant keeps its first reading (np.unique's first index)
@@ -157,9 +201,12 @@ def unnamed_time(table, names: list, mapping: dict, name: str) -> None:
     def get(col):
         if col not in floats:
             try:
-                floats[col] = _floats(table, col, name)
-            except InputError:      # clock-time strings, labels: not a time this can compare
-                floats[col] = None
+                v = _instants(table, col, name)
+            except InputError:      # labels: not a time
+                v = None
+            if v is not None and v.dtype.kind == "M":   # clock times: seconds from one origin
+                v = _seconds({0: v, 1: np.array([_ORIGIN])}, {}, name)[0][0]
+            floats[col] = v
         return floats[col]
 
     base = get(cols["t"])
@@ -175,13 +222,17 @@ def unnamed_time(table, names: list, mapping: dict, name: str) -> None:
             c = get(other) if other not in cols.values() else None
             if c is None or _leading_run(c) != n or not np.all(np.diff(c[:n]) > 0):
                 continue
-            if run_t is not None and run_t >= n and np.allclose(c[:n], base[:n]):
+            step = np.median(np.diff(base[:run_t or len(base)]))
+            if run_t is not None and run_t >= n and np.all(np.abs(c[:n] - base[:n]) <= 0.01 * step):
                 continue        # the time column's own instants: nothing to say
             rows = f"{run_t} rows" if run_t is not None else "other rows"
             raise InputError(
                 f"{name}: {col!r} fills its first {n} rows and the time {cols['t']!r} {rows}; "
                 f"{other!r} rises on exactly those {n} rows, {col!r}'s own time as a side-by-side "
                 f"export has it: map it as {role}={col}@{other}")
+
+
+_ORIGIN = np.datetime64("2000-01-01", "ns")    # a fixed origin for comparing clock times
 
 
 def _leading_run(values: np.ndarray) -> int | None:

@@ -159,3 +159,48 @@ def test_a_second_time_column_alone_is_not_taken_for_an_own_time(tmp_path):
     (tmp_path / "tail.csv").write_text("\n".join(rows) + "\n")
     read = read_record(tmp_path / "tail.csv", inertia=0.1)
     assert len(read.t) == 2500 and read.reading["empty_rows"] == 500
+
+
+def test_own_times_in_clock_time(tmp_path):
+    """Side-by-side time columns holding clock times (ISO strings in a CSV, Arrow timestamps
+    with empty cells in Parquet) share one origin and read as the same columns in seconds do;
+    clock times beside numbers have no common origin: one line.  Before, a CSV's were read as
+    nanoseconds since 1970 ("sample step 1e+06 s")."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    spec = PRESETS["j4"]
+    rec, _ = independent_record(spec, duration=3.0, seed=9763, dt=1e-3)
+    n = len(rec.t)
+    k = np.arange(0, n, 4)
+    late = 0.3e-3        # the position's clock a third of a row behind the torque's
+    start = np.datetime64("2026-11-30T10:00:00", "ns")
+    tau_at = start + np.round(rec.t * 1e9).astype("timedelta64[ns]")
+    q_at = start + np.round((rec.t[k] + late) * 1e9).astype("timedelta64[ns]")
+    cell = lambda a, i: str(a[i]) if i < len(k) else ""           # noqa: E731
+    num = lambda a, i: f"{a[i]:.10g}" if i < len(k) else ""       # noqa: E731
+    rows = ["t_tau,tau,t_q,q"] + [f"{tau_at[i]},{rec.tau[i]:.8g},{cell(q_at, i)},{num(rec.q[k], i)}"
+                                  for i in range(n)]
+    (tmp_path / "clock.csv").write_text("\n".join(rows) + "\n")
+    rows = ["t_tau,tau,t_q,q"] + [f"{rec.t[i]:.6f},{rec.tau[i]:.8g},{num(rec.t[k] + late, i)},{num(rec.q[k], i)}"
+                                  for i in range(n)]
+    (tmp_path / "seconds.csv").write_text("\n".join(rows) + "\n")
+    t_q = np.full(n, np.datetime64("NaT"), dtype="datetime64[ns]")
+    t_q[:len(k)] = q_at
+    q = np.full(n, np.nan)
+    q[:len(k)] = rec.q[k]
+    pq.write_table(pa.table({"t_tau": pa.array(tau_at), "tau": rec.tau, "t_q": pa.array(t_q),
+                             "q": pa.array(q, mask=np.isnan(q))}), tmp_path / "clock.parquet")
+    opts = dict(columns="t=t_tau,tau=tau,q=q@t_q", inertia=spec.inertia, joint_type=spec.joint_type)
+    ref = read_record(tmp_path / "seconds.csv", **opts)
+    for f in ("clock.csv", "clock.parquet"):
+        r = read_record(tmp_path / f, **opts)
+        assert r.reading["own_times"] == {"q": "t_q"} and r.reading.get("clock_time"), f
+        assert len(r.t) == len(ref.t) > 0.9 * n, (f, len(r.t), len(ref.t))
+        assert np.allclose(r.t - r.t[0], ref.t - ref.t[0], atol=1e-9), f
+        assert np.allclose(r.q, ref.q, atol=1e-9) and np.allclose(r.tau, ref.tau), f
+    rows = ["t_tau,tau,t_q,q"] + [f"{tau_at[i]},{rec.tau[i]:.8g},{num(rec.t[k], i)},{num(rec.q[k], i)}"
+                                  for i in range(n)]
+    (tmp_path / "mixed.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=r"mixed.csv: time 't_tau' holds clock times and 't_q' "
+                                         r"numbers; give the times in one kind"):
+        read_record(tmp_path / "mixed.csv", **opts)
