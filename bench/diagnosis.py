@@ -19,7 +19,7 @@ from bench.identify import is_identifiable
 from bench.pruning import backward_pass
 from bench.refit import Evaluated, evaluate, refit, refit_without
 from bench.rounds import (SHAPE_DECIDES, SHAPE_TERMS, close_calls, close_text, shape_contenders, shape_text,
-                          hidden_calls, hidden_text, light_gear, lighter_text, over_gear_text,
+                          far_lighter, hidden_calls, hidden_text, light_gear, lighter_text, over_gear_text,
                           round_winner)
 from bench.screening import MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen, screen
 from bench.signals import effective_sample_fraction
@@ -251,6 +251,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 continue
             ev = evaluate(data, new_model, cv, meta, inertia, chain)
             if not forced_step(sc, add) and not effect.holds(new_model.values, ev.ctx):
+                rejected.add(sc.effect)
+                continue
+            if not forced_step(sc, add) and far_lighter(new_model.values, model.values, ev.rms, cur.rms, inertia):
                 rejected.add(sc.effect)
                 continue
             if not forced_step(sc, add):

@@ -3,7 +3,8 @@ contenders lie within CRITERION_TIE of each other, where the lower held-out erro
 step says it was a close call."""
 from types import SimpleNamespace
 
-from bench.rounds import CRITERION_TIE, close_calls, close_text, hidden_calls, hidden_text, lighter_text, round_winner
+from bench.rounds import (CRITERION_TIE, close_calls, close_text, far_lighter, hidden_calls, hidden_text, lighter_text,
+                          round_winner)
 
 
 def _result(criterion, effect, rms, inertia_error=None):
@@ -68,6 +69,12 @@ def test_a_step_that_lightens_the_model_more_than_it_cuts_the_error_says_so():
     assert lighter_text({"inertia_error": -36.1}, {}, 11.84, 21.37, 180.0) == ""
     assert lighter_text({"inertia_error": 50.0}, {}, 4.56, 4.60, 250.0) == ""        # heavier
     assert lighter_text({"inertia_error": -125.6}, {}, 11.43, 12.74, 0.0) == ""      # friction column
+    # far lighter: turned away from 41 % lighter on, when it is no more than a hidden disturbance
+    assert far_lighter({"inertia_error": -137.9}, {}, 11.43, 12.74, 250.0)         # 55 % lighter
+    assert not far_lighter({"inertia_error": -36.1}, {}, 11.84, 21.37, 180.0)      # a true -20 %
+    assert not far_lighter({"inertia_error": -95.0}, {}, 11.43, 12.74, 250.0)      # 38 %: the note only
+    assert not far_lighter({"inertia_error": -137.9}, {}, 3.0, 12.74, 250.0)       # fell by more
+    assert not far_lighter({"inertia_error": -137.9}, {}, 11.43, 12.74, 0.0)       # friction column
 
 
 def test_a_fading_damping_decides_only_between_contenders_one_sine_hardly_tells_apart():
