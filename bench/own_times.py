@@ -205,7 +205,9 @@ def unnamed_time(table, names: list, mapping: dict, name: str) -> None:
             except InputError:      # labels: not a time
                 v = None
             if v is not None and v.dtype.kind == "M":   # clock times: seconds from one origin
-                v = _seconds({0: v, 1: np.array([_ORIGIN])}, {}, name)[0][0]
+                sec = (v - _ORIGIN).astype(np.int64) * 1e-9
+                sec[np.isnat(v)] = np.nan
+                v = sec
             floats[col] = v
         return floats[col]
 
@@ -228,8 +230,8 @@ def unnamed_time(table, names: list, mapping: dict, name: str) -> None:
             rows = f"{run_t} rows" if run_t is not None else "other rows"
             raise InputError(
                 f"{name}: {col!r} fills its first {n} rows and the time {cols['t']!r} {rows}; "
-                f"{other!r} rises on exactly those {n} rows, {col!r}'s own time as a side-by-side "
-                f"export has it: map it as {role}={col}@{other}")
+                f"{other!r} rises on exactly those {n} rows, as a side-by-side export gives "
+                f"{col!r} a time of its own: map it as {role}={col}@{other}")
 
 
 _ORIGIN = np.datetime64("2000-01-01", "ns")    # a fixed origin for comparing clock times
