@@ -31,6 +31,7 @@ from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.slow_stream import filled_forward
+from bench import structure_spread
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
@@ -44,6 +45,7 @@ class Analysis:
     name: str = "record"
     plot_files: dict = field(default_factory=dict)
     clock_room: ClockRoom = field(default_factory=ClockRoom)    # bench.clock_room: a merged clock
+    _spread: dict | None = field(default=None, repr=False)       # bench.structure_spread, once
 
     # --- the JSON contract -------------------------------------------------------------------
     def report(self) -> dict:
@@ -101,7 +103,17 @@ class Analysis:
                                     torque_unit="N·m" if data.revolute else "N",
                                     # the last round's terms: none is in the final model
                                     screens=[(c.effect, c.explained, c.removed_rms) for c in d.remaining])
+        if doc["unexplained"]["structured"]:
+            structure_spread.widened(doc, self.structure_spread(doc["uncertainty"]))
         return doc
+
+    def structure_spread(self, se: dict) -> dict:
+        """How far the final LuGre values move between halves of the record
+        (``bench.structure_spread``; computed once, as ``predictability``)."""
+        if self._spread is None:
+            d = self.diagnosis
+            self._spread = structure_spread.spread(self.ident.data, d.model, se)
+        return self._spread
 
     def predictability(self) -> dict:
         """How much of the final residual the joint's state predicts on held-out segments
