@@ -60,24 +60,31 @@ def _floats(table, key, name: str) -> np.ndarray:
         raise InputError(f"{name}: column {key!r} is not numeric") from None
 
 
-def _instants(table, key, name: str) -> np.ndarray:
-    """A time column as numbers, or as datetime64[ns] where it holds clock times (Arrow's
-    timestamps, ISO strings; empty cells NaT) -- the kinds the reader takes for t."""
-    col = table[key] if isinstance(table, dict) else table.column(key)
+def clock_or_numbers(col) -> np.ndarray:
+    """A column (Arrow or array) as floats, or as datetime64[ns] where it holds clock times
+    (Arrow's timestamps, ISO strings; empty cells NaT) -- the kinds the reader takes for a
+    time.  Neither: ValueError or TypeError."""
     if hasattr(col, "type"):       # an Arrow column
         import pyarrow as pa
         if pa.types.is_timestamp(col.type):
             return col.cast(pa.timestamp("ns")).to_numpy(zero_copy_only=False).astype("datetime64[ns]")
-        col = col.to_numpy(zero_copy_only=False)
+        try:
+            col = col.to_numpy(zero_copy_only=False)
+        except pa.ArrowException as e:
+            raise ValueError(str(e)) from None
     arr = np.asarray(col)
     if arr.dtype.kind == "M":
         return arr.astype("datetime64[ns]")
     try:
         return np.asarray(arr, dtype=float)
     except (TypeError, ValueError):
-        pass
-    try:
         return np.array(arr, dtype="datetime64[ns]")
+
+
+def _instants(table, key, name: str) -> np.ndarray:
+    """A time column of ``table`` read by ``clock_or_numbers``; neither kind: one line."""
+    try:
+        return clock_or_numbers(table[key] if isinstance(table, dict) else table.column(key))
     except (TypeError, ValueError):
         raise InputError(f"{name}: column {key!r} is not numeric (nor clock times)") from None
 

@@ -366,11 +366,18 @@ def _column_key(table, col: str, role: str, name: str, explicit: bool):
 
 
 def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
+    if time:   # numbers, or clock times as many loggers write them: seconds from the first
+        try:
+            arr = own_times.clock_or_numbers(values)
+        except (TypeError, ValueError):
+            arr = None
+        if arr is not None and arr.dtype.kind == "M":
+            ts = arr.astype(np.int64)
+            return _ClockSeconds((ts - ts[0]) * 1e-9)
+        if arr is not None:
+            return arr
     if hasattr(values, "to_numpy"):   # a pyarrow column
         import pyarrow as pa
-        if pa.types.is_timestamp(values.type):
-            ns = values.cast(pa.timestamp("ns")).to_numpy().astype("datetime64[ns]").astype(np.int64)
-            return _ClockSeconds((ns - ns[0]) * 1e-9)
         try:
             values = values.to_numpy(zero_copy_only=False)
         except pa.ArrowException:
@@ -378,19 +385,10 @@ def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
     arr = np.asarray(values)
     if arr.dtype.kind in "fiu":
         return arr.astype(float)
-    if arr.dtype.kind == "M" and time:   # clock times bench.own_times joined
-        ts = arr.astype("datetime64[ns]").astype(np.int64)
-        return _ClockSeconds((ts - ts[0]) * 1e-9)
     try:
         return np.array(arr, dtype=float)
     except (ValueError, TypeError):
         pass
-    if time:   # clock times, as many loggers write them: seconds from the first
-        try:
-            ts = np.array(arr, dtype="datetime64[ns]").astype(np.int64)
-            return _ClockSeconds((ts - ts[0]) * 1e-9)
-        except (ValueError, TypeError):
-            pass
     for r, cell in enumerate(arr, start=1):
         try:
             float(cell)

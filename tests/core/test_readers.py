@@ -214,6 +214,34 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     assert written == [str(k) for k in ticks]
 
 
+def test_clock_times_in_a_csv_and_a_parquet_read_as_seconds_from_the_first(tmp_path):
+    """A logger's time as ISO 8601 strings (CSV) or Arrow timestamps (Parquet) reads as the same
+    instants in seconds do, counted from the first (one reader of clock times for every time
+    column: bench.own_times.clock_or_numbers)."""
+    spec, t1k, F, q, _ = friction_log("j2", 9777, duration=4.0)
+    t = logged(Record(t=t1k, tau=F, q=q), 9778, drop=0.002)
+    tau, pos = np.interp(t, t1k, F), np.interp(t, t1k, q)
+    start = np.datetime64("2026-12-01T08:00:00", "ns")
+    us = np.round(t * 1e6).astype(np.int64)        # a logger's microseconds
+    stamps = start + us.astype("timedelta64[us]")
+    cols = {"t": "stamp", "tau": "friction", "q": "angle"}
+    seconds = tmp_path / "s.csv"
+    seconds.write_text("stamp,friction,angle\n" + "\n".join(
+        f"{a:.6f},{b!r},{c!r}" for a, b, c in zip(us * 1e-6, tau.tolist(), pos.tolist())))
+    iso = tmp_path / "iso.csv"
+    iso.write_text("stamp,friction,angle\n" + "\n".join(
+        f"{a},{b!r},{c!r}" for a, b, c in zip(np.datetime_as_string(stamps, unit="us"), tau.tolist(), pos.tolist())))
+    parquet = tmp_path / "clock.parquet"
+    pq.write_table(pa.table({"stamp": pa.array(stamps, pa.timestamp("us")), "friction": tau,
+                             "angle": pos}), parquet)
+    ref = read_record(seconds, columns=cols, inertia=0.0, position_unit="deg")
+    for path in (iso, parquet):
+        rec = read_record(path, columns=cols, inertia=0.0, position_unit="deg")
+        assert len(rec.t) == len(ref.t)
+        assert np.allclose(rec.t, ref.t - ref.t[0], rtol=0, atol=1e-9), path
+        assert np.allclose(rec.tau, ref.tau) and np.allclose(rec.q, ref.q), path
+
+
 @pytest.mark.parametrize("joint, condition, seed", [("j3", "robot joint log", 5333),
                                                    ("linear", "PD closed-loop tracking", 5334)])
 def test_a_torque_counting_positive_against_the_position_is_reversed_and_said(joint, condition, seed):
