@@ -45,7 +45,7 @@ class Analysis:
     name: str = "record"
     plot_files: dict = field(default_factory=dict)
     clock_room: ClockRoom = field(default_factory=ClockRoom)    # bench.clock_room: a merged clock
-    _spread: dict | None = field(default=None, repr=False)       # bench.structure_spread, once
+    _spread: tuple | None = field(default=None, repr=False)      # bench.structure_spread, once
 
     # --- the JSON contract -------------------------------------------------------------------
     def report(self) -> dict:
@@ -104,15 +104,17 @@ class Analysis:
                                     # the last round's terms: none is in the final model
                                     screens=[(c.effect, c.explained, c.removed_rms) for c in d.remaining])
         if doc["unexplained"]["structured"]:
-            structure_spread.widened(doc, self.structure_spread(doc["uncertainty"]))
+            structure_spread.widened(doc, *self.structure_spread(doc["uncertainty"]))
         return doc
 
-    def structure_spread(self, se: dict) -> dict:
-        """How far the final LuGre values move between halves of the record
-        (``bench.structure_spread``; computed once, as ``predictability``)."""
+    def structure_spread(self, se: dict) -> tuple[dict, list]:
+        """How far the final LuGre values move between halves of the record, and with the
+        terms not credited that explain most of what is left (``bench.structure_spread``;
+        computed once, as ``predictability``)."""
         if self._spread is None:
-            d = self.diagnosis
-            self._spread = structure_spread.spread(self.ident.data, d.model, se)
+            d, data = self.diagnosis, self.ident.data
+            self._spread = (structure_spread.spread(data, d.model, se),
+                            structure_spread.stories(data, d.model, d.remaining))
         return self._spread
 
     def predictability(self) -> dict:

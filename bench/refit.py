@@ -17,7 +17,7 @@ from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, cleaned, fit, p
 from bench.screening import CrossValidation, Model, model_columns
 
 
-def _effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
+def effect_params(effect: Effect, init: dict, beta: dict) -> list[Param]:
     """The effect's parameters, started at the screened values.  A linear step can overshoot
     a positive (log-scale) parameter; it is then kept within a factor 4 of its start."""
     start = {k: init[k] + beta.get(k, 0.0) for k in init}
@@ -67,7 +67,7 @@ def refit(data: FitData, model: Model, effect: Effect, init: dict, beta: dict,
         return False
 
     for i, (init_i, beta_i) in enumerate([(init, beta), *others]):
-        new = _effect_params(effect, init_i, beta_i)
+        new = effect_params(effect, init_i, beta_i)
         screened = dict(model.values, **{p.name: p.value for p in new})
         own = direct if i == 0 else None      # the direct estimate does not depend on the start
         candidates = [screened] + ([dict(screened, **own)] if own else [])
