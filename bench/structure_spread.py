@@ -9,11 +9,12 @@ measures of how much that matters join their standard errors:
   (each half has half the samples), so on a record with nothing left it is no wider than the
   standard errors already are.
 * **another story**: a library term that predicts most of what is left on held-out segments
-  but was not credited (under one sine a position-locked term cannot be told from a
-  cycle-locked mismatch) is a story the record cannot rule out; the values with it fitted in
-  are as likely as those without.  j1 with position-dependent friction under one sine
-  (independent simulator, tuning seed 1937): Fs +15.5 %, Fc -36 % without it; with it both
-  within 0.1 %, and the error 70x smaller.
+  but was not credited (its own physics did not hold on data it was not fitted to, or it was
+  screened at the wrong pitch) is a story the record cannot rule out; the values with it
+  fitted in are as likely as those without.  j1 with position-dependent friction under one
+  sine, screened at a pitch 10 % long and not credited (independent simulator, tuning seed
+  1937, README known limits): Fs +15.5 %, Fc -36 % without it; with it both within 0.1 %,
+  and the error 70x smaller.
 
 Each fit is a local polish from the final values (as a nested control's): one linear step on
 a half's samples went far along a valley the values trade off in (Fc against alpha on j1
