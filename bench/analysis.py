@@ -114,7 +114,7 @@ class Analysis:
         if self._spread is None:
             d, data = self.diagnosis, self.ident.data
             self._spread = (structure_spread.spread(data, d.model, se),
-                            structure_spread.stories(data, d.model, d.remaining))
+                            structure_spread.stories(data, d.model, d.contexts[-1].model, d.remaining))
         return self._spread
 
     def predictability(self) -> dict:

@@ -137,13 +137,19 @@ def without(data: FitData, model: Model, name: str) -> Model:
     return refit_without(data, base, base)
 
 
+def polish_params(model: Model, values: dict) -> list[Param]:
+    """``model``'s parameters started at ``values``, the positive ones bounded within e^4 of
+    them: a local polish (``refit_without``, ``bench.structure_spread``)."""
+    return [Param(p.name, values[p.name], p.log,
+                  (math.log(values[p.name]) - 4 if p.log else p.lo),
+                  (math.log(values[p.name]) + 4 if p.log else p.hi)) for p in model.params]
+
+
 def refit_without(data: FitData, model: Model, with_effect: Model) -> Model:
     """``model``'s parameters refitted locally, started from the values ``with_effect``
     reached."""
     values = {k: with_effect.values[k] for k in model.values}
-    params = [Param(p.name, values[p.name], p.log,
-                    (math.log(values[p.name]) - 4 if p.log else p.lo),
-                    (math.log(values[p.name]) + 4 if p.log else p.hi)) for p in model.params]
+    params = polish_params(model, values)
     res = fit(data, params, fixed=values, appliers=model.appliers, max_nfev=20)  # a local polish
     return Model(values=res.values, effects=list(model.effects), params=params, result=res,
                  owner=dict(model.owner))

@@ -28,9 +28,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bench.effects import get
-from bench.fitting import LUGRE_KEYS, FitData, Param, fit, predict
+from bench.fitting import LUGRE_KEYS, FitData, fit, predict
 from bench.identify import is_identifiable
-from bench.refit import effect_params
+from bench.refit import effect_params, polish_params
 from bench.screening import Model, Screen
 
 # A part determines a value when its standard error is within this factor of the whole
@@ -65,19 +65,12 @@ def parts(data: FitData) -> dict[str, np.ndarray]:
     return {"time": t < np.median(t), "travel": q < np.median(q), "direction": v > 0}
 
 
-def _local(model: Model) -> list[Param]:
-    """The model's parameters bounded about their values, as ``refit_without`` polishes."""
-    v = model.values
-    return [Param(p.name, v[p.name], p.log, (math.log(v[p.name]) - 4 if p.log else p.lo),
-                  (math.log(v[p.name]) + 4 if p.log else p.hi)) for p in model.params]
-
-
 def spread(data: FitData, model: Model, se: dict[str, float | None]) -> dict[str, float]:
     """Per LuGre value, half the largest difference between the two halves' fits over the
     ways of halving in which both determine it (0 where none does)."""
     out = {k: 0.0 for k in LUGRE_KEYS}
     idx = np.nonzero(data.mask)[0]
-    params = _local(model)
+    params = polish_params(model, model.values)
     for first in parts(data).values():
         if min(first.mean(), 1.0 - first.mean()) < MIN_PART:
             continue
@@ -98,19 +91,19 @@ def spread(data: FitData, model: Model, se: dict[str, float | None]) -> dict[str
     return out
 
 
-def stories(data: FitData, model: Model, remaining: list[Screen]) -> list[Story]:
-    """The terms not credited that explain most of what is left, each fitted in (from its
-    screened start), with the LuGre values it leads to; a value it does not determine is
-    left at the final model's."""
+def stories(data: FitData, model: Model, model_trace: np.ndarray, remaining: list[Screen]) -> list[Story]:
+    """The terms not credited that explain most of what is left (``model_trace``: the final
+    model's prediction), each fitted in (from its screened start), with the LuGre values it
+    leads to; a value it does not determine is left at the final model's."""
     m = data.mask
-    left = float(np.mean((data.friction - predict(data, model.values, model.appliers))[m] ** 2))
+    left = float(np.mean((data.friction - model_trace)[m] ** 2))
     out = []
     tried = [s for s in sorted(remaining, key=lambda s: -s.explained)
              if s.explained >= STORY_SHARE and s.effect not in model.names()][:STORIES]
     for sc in tried:
         effect = get(sc.effect)
         new = effect_params(effect, sc.init, sc.beta)
-        res = fit(data, _local(model) + new, fixed=dict(model.values, **{p.name: p.value for p in new}),
+        res = fit(data, polish_params(model, model.values) + new, fixed=dict(model.values, **{p.name: p.value for p in new}),
                   appliers=model.appliers + [effect.apply], max_nfev=20)
         after = float(np.mean((data.friction - predict(data, res.values, model.appliers + [effect.apply]))[m] ** 2))
         if after > (1.0 - STORY_SHARE) * left:

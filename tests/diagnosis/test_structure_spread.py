@@ -89,7 +89,7 @@ def test_a_term_not_credited_that_explains_what_is_left_is_another_story_for_the
     sc = screen(get("position_dependent_friction"), cur.ctx, model, cur.J, cv, cur.sse,
                 cv.sse_across_directions(cur.J, cur.r), n_eff)
     assert sc.explained > STORY_SHARE, sc.explained
-    told = stories(data, model, [sc])
+    told = stories(data, model, cur.ctx.model, [sc])
     f = spec.friction
     assert [s.effect for s in told] == ["position_dependent_friction"]
     story = {k: told[0].values[k] / getattr(f, k) - 1 for k in ("Fc", "Fs", "sigma2")}
