@@ -213,21 +213,30 @@ def check_known(kw: dict, allowed: tuple[str, ...], effect: str) -> None:
 
 
 def position_periodogram(q: np.ndarray, y: np.ndarray, pitches: np.ndarray,
-                         weight: np.ndarray | None = None) -> np.ndarray:
+                         weight: np.ndarray | None = None, nuisance: np.ndarray | None = None) -> np.ndarray:
     """Fraction of ``y``'s variance explained by a sine/cosine of q at each pitch (the basis
     optionally multiplied by ``weight``).  Used to find a pitch from a residual; the 2x2
-    least-squares problems are solved in closed form for all pitches at once."""
+    least-squares problems are solved in closed form for all pitches at once.  ``nuisance``:
+    columns (samples x m) the basis is taken beside, projected out of it as the screening
+    fits it beside the model's own sensitivities."""
     yy = y - y.mean()
     total = float(yy @ yy) or 1.0
     out = np.empty(len(pitches))
+    Z = None
+    if nuisance is not None:
+        Z, _ = np.linalg.qr(np.column_stack([np.ones(len(q)), nuisance]))
     for lo in range(0, len(pitches), 64):       # chunks bound the memory
         w = 2 * np.pi / np.asarray(pitches[lo:lo + 64])
         ph = np.outer(q, w)
         S, C = np.sin(ph), np.cos(ph)
         if weight is not None:
             S, C = S * weight[:, None], C * weight[:, None]
-        S -= S.mean(axis=0)
-        C -= C.mean(axis=0)
+        if Z is None:
+            S -= S.mean(axis=0)
+            C -= C.mean(axis=0)
+        else:
+            S -= Z @ (Z.T @ S)
+            C -= Z @ (Z.T @ C)
         ss, cc, sc = (S * S).sum(0), (C * C).sum(0), (S * C).sum(0)
         ys, yc = yy @ S, yy @ C
         det = ss * cc - sc * sc
@@ -246,10 +255,11 @@ def pitch_grid(q: np.ndarray, n: int = 400) -> np.ndarray:
     return 1.0 / np.linspace(f_lo, f_hi, n)
 
 
-def refine_pitch(q: np.ndarray, y: np.ndarray, pitch: float, weight: np.ndarray | None = None) -> float:
+def refine_pitch(q: np.ndarray, y: np.ndarray, pitch: float, weight: np.ndarray | None = None,
+                 nuisance: np.ndarray | None = None) -> float:
     span = float(np.ptp(q))
     f0 = 1.0 / pitch
     df = 1.0 / span
     fine = 1.0 / np.linspace(max(f0 - df, 0.5 / span), f0 + df, 81)
-    score = position_periodogram(q, y, fine, weight)
+    score = position_periodogram(q, y, fine, weight, nuisance)
     return float(fine[int(np.argmax(score))])
