@@ -32,3 +32,24 @@ def test_a_coarse_position_ripple_under_one_sine_is_named_at_its_pitch():
         assert g["credited"] == ["position_dependent_friction"] and not g["structured"], g
         assert abs(g["pitch"]) < 0.02, g
         assert g["off"] and max(map(abs, g["off"].values())) < 0.05, g
+
+
+def _ours(joint: str, seed: int) -> dict:
+    from virtual_drives.scenarios import simulate_scenario
+    sim, texts = simulate_scenario(PRESETS[joint], ["position_dependent_friction"], seed)
+    doc = analyze_record(sim.record).report()
+    pitch = float(texts[0].split("pitch=")[1].split(",")[0])
+    return {"joint": joint, "seed": seed, "injected": texts,
+            "credited": [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            "structured": doc["unexplained"]["structured"],
+            "pitch": doc["final"]["parameters"].get("pf_pitch", 0.0) / pitch - 1}
+
+
+def test_a_ripple_of_two_pitches_to_the_travel_is_seen_to_repeat_and_named():
+    """Under three pitches to the travel a ripple must repeat one pitch on (a local friction
+    bump fitted as one lobe does not: ``repeats``).  Our scenarios' position-dependent
+    friction drawn at 2.0-2.2 pitches to the travel, the edge of what they draw; fresh seeds."""
+    got = map_records(_ours, [("j1", 9796), ("j3", 9802), ("linear", 9848), ("j4", 9860)])
+    for g in got:
+        assert g["credited"] == ["position_dependent_friction"] and not g["structured"], g
+        assert abs(g["pitch"]) < 0.02, g
