@@ -61,7 +61,10 @@ def test_a_local_friction_defect_is_unexplained_and_the_hint_names_the_position(
     there, so the hint said backlash or non-linear viscous friction (tuning seeds 1950-1955 and
     1970-1975: 12 of 12 flagged with nothing credited, 12 of 12 hints without the position's
     physics).  Tied signals now bring their physics too (``bench.predictability.ties``).
-    Fresh seeds: measured 9 of 10 (j2 5741 credited position-dependent friction)."""
+    Fresh seeds: measured 9 of 10 (j2 5741 credited position-dependent friction).  Since the
+    pitch is refined beside LuGre and a ripple of few pitches must repeat: 9 of 10, j2 5747
+    credited it at 1.97 pitches to the travel, the bump paired with the travel's ends, where
+    the low speeds carry a Stribeck misfit (``repeats`` 0.71, just over 0.7)."""
     jobs = [(("j1", "j2", "j3", "j4", "linear", "rotary")[i % 6], "local_defect", 5740 + i) for i in range(10)]
     verdicts = map_records(outside_verdict, jobs)
     wrong = [v for v in verdicts if v["credited"] or v["final"] or not v["structured"]]
