@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from bench.errors import InputError
-from bench.fitting import FitData, Param
+from bench.fitting import LUGRE_KEYS, FitData, Param
+from bench.model_trace import filtered_lugre
 
 
 @dataclass
@@ -210,6 +211,26 @@ def check_known(kw: dict, allowed: tuple[str, ...], effect: str) -> None:
     for k in kw:
         if k not in allowed:
             raise InputError(f"effect {effect}: unknown parameter {k!r}; known: {', '.join(allowed)}")
+
+
+def lugre_directions(ctx: Context, lugre: dict, inertia: bool = False) -> np.ndarray:
+    """An orthonormal basis, at the scored samples, of how the filtered LuGre trace moves with
+    each LuGre parameter (and, with ``inertia``, of the acceleration): a term and a residual
+    taken off it are compared as if LuGre (and the inertia) were refitted beside the term (to
+    first order; ``bench.effects.gear``), or a pitch refined beside LuGre as the screening then
+    fits it (``bench.effects.periodic.best_pitches``)."""
+    d, m = ctx.data, ctx.data.mask
+    base = filtered_lugre(d, lugre)
+    cols = []
+    for k in LUGRE_KEYS:
+        p = dict(lugre)
+        h = 1e-4 * abs(p[k]) or 1e-6
+        p[k] += h
+        cols.append(((filtered_lugre(d, p) - base) / h)[m])
+    if inertia:
+        cols.append(d.c.a[m])
+    J = np.column_stack(cols)
+    return np.linalg.qr(J / (np.linalg.norm(J, axis=0) + 1e-300))[0]
 
 
 def position_periodogram(q: np.ndarray, y: np.ndarray, pitches: np.ndarray,

@@ -9,7 +9,7 @@ from contextvars import ContextVar
 import numpy as np
 
 from bench import terms
-from bench.effects.base import Context, Effect, number
+from bench.effects.base import Context, Effect, lugre_directions, number
 from bench.errors import InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS, Param
 from bench.gear_model import gear_unit_term
@@ -66,25 +66,6 @@ def friction_beyond_gear():
 def friction_beyond_on() -> bool:
     """Is the second pass (``friction_beyond_gear``) on?"""
     return _BEYOND.get()
-
-
-def lugre_directions(ctx: Context, lugre: dict, inertia: bool = False) -> np.ndarray:
-    """An orthonormal basis, at the scored samples, of how the filtered LuGre trace moves with
-    each LuGre parameter (and, with ``inertia``, of the acceleration): a term and a residual
-    taken off it are compared as if LuGre (and the inertia) were refitted beside the term (to
-    first order)."""
-    d, m = ctx.data, ctx.data.mask
-    base = filtered_lugre(d, lugre)
-    cols = []
-    for k in LUGRE_KEYS:
-        p = dict(lugre)
-        h = 1e-4 * abs(p[k]) or 1e-6
-        p[k] += h
-        cols.append(((filtered_lugre(d, p) - base) / h)[m])
-    if inertia:
-        cols.append(d.c.a[m])
-    J = np.column_stack(cols)
-    return np.linalg.qr(J / (np.linalg.norm(J, axis=0) + 1e-300))[0]
 
 
 def gear_scorer(ctx: Context, refit_lugre: bool = False, refit_inertia: bool = False):

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from bench.effects.base import Context, Effect, pitch_grid, position_periodogram, refine_pitch
-from bench.fitting import LUGRE_KEYS, Param, predict
+from bench.effects.base import Context, Effect, lugre_directions, pitch_grid, position_periodogram, refine_pitch
+from bench.fitting import LUGRE_KEYS, Param
 from bench.signals import binned_r2
 
 
@@ -44,23 +44,6 @@ def torque_locked(ctx: Context, bins: int = 40) -> str:
             f"amplitudes (bench simulate --excitation two-tone) tells them apart")
 
 
-def lugre_columns(ctx: Context, idx: np.ndarray) -> np.ndarray:
-    """LuGre's sensitivities to its six values at ``idx`` (relative steps, the effects
-    already in left out).  A pitch is refined beside them, as the screening fits it: under
-    one sine a position ripple three pitches to the travel was screened 7-11 % long from
-    the bare residual, where the LuGre fit had bent its levels towards it (Fs +15 % on j1;
-    independent simulator, tuning seeds 1937, 1981), and then failed the halves test."""
-    values = {k: ctx.values[k] for k in LUGRE_KEYS}
-    base = predict(ctx.data, values)[idx]
-    cols = []
-    for k in LUGRE_KEYS:
-        h = 1e-4 * abs(values[k]) or 1e-6
-        cols.append((predict(ctx.data, dict(values, **{k: values[k] + h}))[idx] - base) / h)
-    J = np.column_stack(cols)
-    norm = np.linalg.norm(J, axis=0)
-    return J[:, norm > 0] / norm[norm > 0]
-
-
 def best_pitches(ctx: Context, weight: np.ndarray | None, count: int = 2) -> list[float]:
     """The ``count`` strongest distinct pitches of the residual (basis times ``weight``)."""
     idx = np.nonzero(ctx.data.mask)[0][::4]
@@ -68,7 +51,12 @@ def best_pitches(ctx: Context, weight: np.ndarray | None, count: int = 2) -> lis
     w = None if weight is None else weight[idx]
     grid = pitch_grid(q)
     score = position_periodogram(q, r, grid, w)
-    lugre = lugre_columns(ctx, idx)
+    # beside LuGre's own directions: under one sine a position ripple three pitches to the
+    # travel was read 7-11 % long from the bare residual, where the LuGre fit had bent its
+    # levels towards it (Fs +15 % on j1; independent simulator, tuning seeds 1937, 1981), and
+    # then failed the halves test.  The effects already in (a Stribeck exponent among them)
+    # are left out.
+    lugre = lugre_directions(ctx, {k: ctx.values[k] for k in LUGRE_KEYS} | {"delta": 1.0})[::4]
     picks: list[float] = []
     for i in np.argsort(score)[::-1]:
         p = float(grid[i])

@@ -1,6 +1,6 @@
 """A position ripple of few pitches to the travel under one sine (another simulator's
 position-dependent friction, three pitches to the travel) is screened at its pitch when the
-pitch is refined beside LuGre's own sensitivities (``bench.effects.periodic.lugre_columns``).
+pitch is refined beside LuGre's own sensitivities (``bench.effects.base.lugre_directions``).
 From the bare residual it was screened 7-11 % long, where the LuGre fit had bent its levels
 towards it, and failed the halves test: j1 and j2 left it "unexplained" with Fs 15-17 % high,
 j3 credited a 2.3 Hz joint_flexibility at damping 0.009 (tuning seeds 1937, 1981, 1986; fresh
