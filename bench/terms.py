@@ -95,7 +95,7 @@ def empty() -> np.ndarray:
 
 
 @njit(cache=True)
-def _fourier(q, pitch, ev, first, harmonics):
+def fourier(q, pitch, ev, first, harmonics):
     w = 2.0 * np.pi / pitch
     out = 0.0 * q
     for k in range(harmonics):
@@ -114,12 +114,12 @@ def effect_terms(q, v, t, ev):
     if ev[GRAV_SIN] != 0.0 or ev[GRAV_COS] != 0.0:
         add = add + ev[GRAV_SIN] * np.sin(q) + ev[GRAV_COS] * np.cos(q)
     if ev[COG_PITCH] > 0.0:
-        add = add + _fourier(q, ev[COG_PITCH], ev, COG_COEF, COG_HARMONICS)
+        add = add + fourier(q, ev[COG_PITCH], ev, COG_COEF, COG_HARMONICS)
     level = 1.0 + 0.0 * q
     if ev[ASYM] != 0.0:
         level = level * (1.0 + ev[ASYM] * np.sign(v))
     if ev[PF_PITCH] > 0.0:
-        level = level * (1.0 + _fourier(q, ev[PF_PITCH], ev, PF_COEF, PF_HARMONICS))
+        level = level * (1.0 + fourier(q, ev[PF_PITCH], ev, PF_COEF, PF_HARMONICS))
     visc = 1.0 + 0.0 * t
     if (ev[THERM_GAIN] != 0.0 or ev[THERM_VISC] != 0.0) and ev[THERM_TAU] > 0.0:
         rise = 1.0 - np.exp(-t / ev[THERM_TAU])

@@ -32,9 +32,9 @@ def repeats(values, ctx, effect) -> float:
     c, m = ctx.data.c, ctx.data.mask
     pitch = effect.pitch(values)
     w = ctx.model - values["sigma2"] * c.v           # ~ sgn(v) s(v), as the periodogram weighs
-    ph = 2 * np.pi * c.q / pitch
-    level = sum(values.get(f"pf_s{k}", 0.0) * np.sin(k * ph) + values.get(f"pf_c{k}", 0.0) * np.cos(k * ph)
-                for k in range(1, terms.PF_HARMONICS + 1))
+    ev = terms.empty()
+    effect.apply(values, {}, ev)                     # the level series as the kernel scales s(v)
+    level = terms.fourier(c.q, pitch, ev, terms.PF_COEF, terms.PF_HARMONICS)
     y = ctx.residual + level * w
     sliding = m & (np.abs(w) > 0.5 * np.median(np.abs(w[m])))
     h = pitch / 8.0
