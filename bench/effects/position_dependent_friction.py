@@ -99,10 +99,16 @@ class PositionDependentFriction(PositionSeries):
 
     def evidence(self, values, explained, ctx):
         periods = float(np.ptp(ctx.data.c.q)) / self.pitch(values)
-        # under two periods in the travel nothing shows that it repeats (a saturating torque
-        # constant under one sine was fitted with 1.3-1.7: README known limits)
-        how = ("periodically in position" if periods >= 2.0 else
-               f"along the travel ({periods:.2g} periods of it in the travel: whether it repeats is not seen)")
+        how = "periodically in position"
+        if periods < FEW_PERIODS:
+            # few periods: say what ``holds`` measured, so a technician knows how far the
+            # travel showed the level repeating (a single bump fits one lobe: known limits)
+            score = repeats(values, ctx, self)
+            seen = (f"the level repeats one pitch further on, score {score:.2f} of 1"
+                    if score >= REPEATS else
+                    f"the level does not repeat one pitch further on, score {score:.2f} of 1: "
+                    f"one bump along the travel fits it as well")
+            how = f"along the travel ({periods:.2g} periods of it in the travel; {seen})"
         return (f"friction level varies by ±{self.fundamental(values):.0%} {how}, "
                 f"pitch {format_length(self.pitch(values), ctx.position_unit)}, and the error changes "
                 f"sign with the direction of motion (position-dependent friction); "

@@ -41,6 +41,7 @@ def _ours(joint: str, seed: int) -> dict:
     pitch = float(texts[0].split("pitch=")[1].split(",")[0])
     return {"joint": joint, "seed": seed, "injected": texts,
             "credited": [d["effect"] for d in doc["diagnosis"] if d["significant"]],
+            "evidence": doc["diagnosis"][0]["evidence"],
             "structured": doc["unexplained"]["structured"],
             "pitch": doc["final"]["parameters"].get("pf_pitch", 0.0) / pitch - 1}
 
@@ -53,3 +54,5 @@ def test_a_ripple_of_two_pitches_to_the_travel_is_seen_to_repeat_and_named():
     for g in got:
         assert g["credited"] == ["position_dependent_friction"] and not g["structured"], g
         assert abs(g["pitch"]) < 0.02, g
+        # the evidence says what the repeat test saw, not that it could not be seen
+        assert "the level repeats one pitch further on, score" in g["evidence"], g
