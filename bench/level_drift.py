@@ -113,15 +113,28 @@ def biased(p: dict, friction_level: float, min_size: float) -> bool:
     return bool(abs(p["t"]) >= BIAS_T and abs(p["bias"]) >= min_size * friction_level)
 
 
-def drift_follows(c, residual: np.ndarray, term: np.ndarray, mask: np.ndarray) -> tuple[float, float, int]:
+def drift_follows(c, residual: np.ndarray, term: np.ndarray,
+                  mask: np.ndarray) -> tuple[float, float, float, int]:
     """A fitted drift ``term`` against the level series it was meant to describe (the
     residual with the term added back): (squared error of the drift's own levels, of the
-    neighbours' prediction, segments).  A drift that is one exponential follows its levels
-    better than their neighbours do (they lag a curve); a step is followed better by the
-    neighbours, which miss only the two segments around it."""
+    neighbours' prediction, of the best single step, segments).  A drift that is one
+    exponential follows its levels better than their neighbours do (they lag a curve) and far
+    better than one step; a step is followed better by the neighbours, which miss only the two
+    segments around it, and by a step, which misses none."""
     _, raw = segment_levels(c, residual + term, mask)
     _, own = segment_levels(c, term, mask)
     n = len(raw)
     if n < MIN_SEGMENTS:
-        return 0.0, 0.0, n
-    return float(np.sum((raw - own) ** 2)), float(np.sum((raw - _neighbours(raw)) ** 2)), n
+        return 0.0, 0.0, 0.0, n
+    return (float(np.sum((raw - own) ** 2)), float(np.sum((raw - _neighbours(raw)) ** 2)),
+            best_step(raw), n)
+
+
+def best_step(levels: np.ndarray, side: int = 2) -> float:
+    """Squared error of the level series about its best single step (a mean before and one
+    after), at least ``side`` segments on each side."""
+    best = float(np.sum((levels - levels.mean()) ** 2))
+    for k in range(side, len(levels) - side + 1):
+        a, b = levels[:k], levels[k:]
+        best = min(best, float(np.sum((a - a.mean()) ** 2) + np.sum((b - b.mean()) ** 2)))
+    return best

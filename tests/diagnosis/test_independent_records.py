@@ -4,6 +4,7 @@ sampling), so that the diagnosis is not right only on its own generator.
 
 While building the load-side friction, seeds 3, 4, 11 and 12 were looked at, and 7000-7056
 while building the two-gain thermal drift; the seeds here (9100+, 9200+) were not."""
+import numpy as np
 import pytest
 
 from bench.analysis import analyze_record
@@ -257,6 +258,32 @@ def test_a_sudden_friction_change_is_unexplained_and_not_credited_to_a_drift():
         u = doc["unexplained"]
         if credited or not u["structured"] or "friction level changes" not in u["evidence"]:
             wrong.append((joint, step, credited, u["evidence"][:200]))
+    assert len(wrong) <= 1, wrong
+
+
+def _stepped_two_tones(i: int, joint: str, seed: int) -> tuple:
+    spec = PRESETS[joint]
+    A, fr = spec.excitation
+    t = np.arange(20000) * 1e-3
+    torque = A * (0.65 * np.sin(2 * np.pi * fr * t) + 0.35 * np.sin(2 * np.pi * 1.618 * fr * t + 1.0))
+    step = (-1) ** i * (0.06 + 0.012 * i)
+    rec, _ = independent_record(spec, seed=seed, torque=torque, disturbance=0.01 * spec.friction.Fc,
+                                drop=0.01, physics=dict(jump=step, jump_t=7.0 + i))
+    doc = _report(rec)
+    u = doc["unexplained"]
+    return (joint, step, [d["effect"] for d in doc["diagnosis"] if d["significant"]], u["structured"],
+            u["evidence"][:200])
+
+
+def test_a_sudden_friction_change_under_two_tones_is_not_taken_for_a_warm_up():
+    """Under two tones a Table II joint's 20 s has 8-9 uneven motion segments, too few and too
+    noisy for the neighbours to follow the levels better than a drift: a step was credited as a
+    warm-up (tuning seeds 1603, 1605; fresh 10065).  One step of the levels must not follow them
+    better than the drift either (``thermal_drift.STEP_RATIO``).  Fresh seeds 10080-10085 were
+    checked when it was written (six of six unexplained, nothing credited); these were not."""
+    from tests.record_pool import map_records
+    got = map_records(_stepped_two_tones, [(i, j, 10100 + i) for i, j in enumerate(("j1", "j2", "j3", "j4"))])
+    wrong = [g for g in got if g[2] or not g[3]]
     assert len(wrong) <= 1, wrong
 
 
