@@ -11,7 +11,6 @@ from bench.analysis import analyze_record
 from bench.cli import app as cli_app
 from bench.effects.backlash import MOTOR_SHARE
 from bench.effects.inject import parse_injections
-from bench.errors import InputError
 from virtual_drives.joint import simulate_record
 from virtual_drives.presets import PRESETS
 from virtual_drives.scenarios import random_effects, simulate_scenario
