@@ -264,6 +264,15 @@ def independent_record(spec, duration: float = 20.0, seed: int = 0, *, torque=No
     return Record(t=ts, tau=tau, q=q, meta=meta), path
 
 
+def two_tones(spec, duration: float = 20.0, dt: float = 1e-3, split: tuple[float, float] = (0.65, 0.35),
+              ratio: float = 1.618) -> np.ndarray:
+    """Two torque tones (held per ``dt``): ``split`` of the sine test's amplitude at its
+    frequency and at ``ratio`` times it (golden ratio: incommensurate), the second shifted 1 rad."""
+    A, fr = spec.excitation
+    t = np.arange(int(round(duration / dt))) * dt
+    return A * (split[0] * np.sin(2 * np.pi * fr * t) + split[1] * np.sin(2 * np.pi * ratio * fr * t + 1.0))
+
+
 def point_to_point(travel: float, half_period: float, duration: float, rng, dt: float = 1e-3,
                    dwell: tuple[float, float] = (0.3, 1.5), homing: float = 0.0,
                    moves: tuple[float, float] = (0.6, 1.4)) -> np.ndarray:

@@ -4,11 +4,10 @@ sampling), so that the diagnosis is not right only on its own generator.
 
 While building the load-side friction, seeds 3, 4, 11 and 12 were looked at, and 7000-7056
 while building the two-gain thermal drift; the seeds here (9100+, 9200+) were not."""
-import numpy as np
 import pytest
 
 from bench.analysis import analyze_record
-from independent_joint import independent_record
+from independent_joint import independent_record, two_tones
 from virtual_drives.presets import PRESETS
 
 
@@ -263,11 +262,8 @@ def test_a_sudden_friction_change_is_unexplained_and_not_credited_to_a_drift():
 
 def _stepped_two_tones(i: int, joint: str, seed: int) -> tuple:
     spec = PRESETS[joint]
-    A, fr = spec.excitation
-    t = np.arange(20000) * 1e-3
-    torque = A * (0.65 * np.sin(2 * np.pi * fr * t) + 0.35 * np.sin(2 * np.pi * 1.618 * fr * t + 1.0))
     step = (-1) ** i * (0.06 + 0.012 * i)
-    rec, _ = independent_record(spec, seed=seed, torque=torque, disturbance=0.01 * spec.friction.Fc,
+    rec, _ = independent_record(spec, seed=seed, torque=two_tones(spec), disturbance=0.01 * spec.friction.Fc,
                                 drop=0.01, physics=dict(jump=step, jump_t=7.0 + i))
     doc = _report(rec)
     u = doc["unexplained"]
