@@ -332,7 +332,7 @@ def test_friction_that_grows_with_the_carried_torque_is_unexplained_under_two_to
     """The other simulator's loaded mesh (the levels grow by mu |torque| / Fc) under two tones:
     LuGre took it as a higher Fc (6-32 %) and "nothing left" (fresh seeds 10130-10141, before
     ``bench.load_torque``, which regresses the level error on the carried torque within the
-    motion segments; tuned on 1650-1687 and 1700-1961).  Fresh seeds 10142-10147 missed 3 of 6
+    motion segments; tuned on 1650-1687 and 1700-1949).  Fresh seeds 10142-10147 missed 3 of 6
     under its first t (over per-segment slopes) and so shaped the jackknife t; 10148-10153, fresh
     for it: two tones 3 of 3 flagged, PID tracking 1 of 3 (README known limits: not asserted).
     These seeds were not looked at.  Nothing may be credited, and the verdict must name the load.
