@@ -31,7 +31,7 @@ from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.slow_stream import filled_forward
-from bench import structure_spread
+from bench import load_torque, structure_spread
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
@@ -102,7 +102,9 @@ class Analysis:
                                     load_encoder=self.record.load_encoder,
                                     torque_unit="N·m" if data.revolute else "N",
                                     # the last round's terms: none is in the final model
-                                    screens=[(c.effect, c.explained, c.removed_rms) for c in d.remaining])
+                                    screens=[(c.effect, c.explained, c.removed_rms) for c in d.remaining],
+                                    load=load_torque.carried(data.c, data.friction - d.contexts[-1].model, data.mask)
+                                    if data.inertia > 0 else None)
         if doc["unexplained"]["structured"]:
             structure_spread.widened(doc, *self.structure_spread(doc["uncertainty"]))
         return doc

@@ -41,19 +41,27 @@ def segment_levels(c, residual: np.ndarray, mask: np.ndarray,
     """(mid-time, level error) per motion segment: the mean of residual x direction over the
     segment's sliding samples (comparison grid); ``odd`` False: of the residual itself (a
     constant torque, ``bias``)."""
-    vmax = float(np.percentile(np.abs(c.v[mask]), 99.5)) if mask.any() else 0.0
-    if not vmax > 0:
-        return np.zeros(0), np.zeros(0)
-    cuts = np.concatenate(([0], reversals(c.v, 0.05 * vmax), [len(c.v)]))
     t_mid, level = [], []
-    for a, b in zip(cuts[:-1], cuts[1:]):
-        sel = np.arange(a, b)
-        sel = sel[mask[sel] & (np.abs(c.v[sel]) >= SLIDING * vmax)]
-        if len(sel) < 5:
-            continue
+    for sel in sliding_segments(c, mask):
         t_mid.append(float(np.mean(c.t[sel])))
         level.append(float(np.mean(residual[sel] * (np.sign(c.v[sel]) if odd else 1.0))))
     return np.array(t_mid), np.array(level)
+
+
+def sliding_segments(c, mask: np.ndarray, least: int = 5) -> list[np.ndarray]:
+    """Per motion segment (between velocity reversals), the indices of its sliding samples
+    (faster than ``SLIDING`` of the top speed, inside ``mask``), when it has ``least`` of them."""
+    vmax = float(np.percentile(np.abs(c.v[mask]), 99.5)) if mask.any() else 0.0
+    if not vmax > 0:
+        return []
+    cuts = np.concatenate(([0], reversals(c.v, 0.05 * vmax), [len(c.v)]))
+    out = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        sel = np.arange(a, b)
+        sel = sel[mask[sel] & (np.abs(c.v[sel]) >= SLIDING * vmax)]
+        if len(sel) >= least:
+            out.append(sel)
+    return out
 
 
 def _neighbours(lv: np.ndarray) -> np.ndarray:

@@ -25,8 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from bench import load_torque
 from bench.level_drift import biased, changes
 from bench.rest_memory import grows
+from bench.rounds import CHECK_INERTIA
 from bench.predictability import MIN_PREDICTED, T_CRIT
 from bench.signals import Conditioned, held_torque, second_difference, white_noise_rms
 
@@ -87,6 +89,11 @@ SIGNALS = {
 LEVEL_PHYSICS = ("a friction change during the record that one warm-up exponential does not describe "
                  "(a step: lubricant redistributed, a seal, a load or a contact change; a temperature "
                  "that rises and falls)")
+LOAD_PHYSICS = ("friction that grows with the load a gear mesh or bearing carries (tooth and bearing forces: "
+                "about mu |torque| on top of the unloaded level), which LuGre's levels do not have; a sine test at "
+                "two torque amplitudes shows it as a Coulomb level that rises with the amplitude.  Or an inertia "
+                "other than the declared one that a felt disturbance hid from the inertia_error fit: within a "
+                f"motion M q'' follows the torque as closely: {CHECK_INERTIA}")
 REST_PHYSICS = ("static friction that grows with the time at rest (a dwell-time dependent breakaway, "
                 "Kato's or Rabinowicz's law), which LuGre's breakaway does not remember; or a load that "
                 "differs after the long rests (a payload picked up or put down during them)")
@@ -206,7 +213,7 @@ DYNAMICS = ("physics that follows the joint's dynamics rather than its state: a 
 def assess(final: dict, rms: float | None, floor: float | None, predictability: dict,
            friction_level: float, replay_rms: float = 0.0, lugre: tuple[dict, dict] | None = None,
            load_encoder: bool = False, torque_unit: str = "N·m",
-           screens: list[tuple[str, float, float]] | None = None) -> dict:
+           screens: list[tuple[str, float, float]] | None = None, load: dict | None = None) -> dict:
     """The verdict on a final residual: its breakdown (``bench.residuals.breakdown``), the
     final held-out ``rms``, the measurement noise ``floor`` (reported, not decisive), the
     ``predictability`` of the residual from the state signals and the joint's Coulomb level.
@@ -216,7 +223,8 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
     all its friction on the motor.  A constant torque left (``bench.level_drift.bias``) is
     structure the state learner cannot see, and so is a share of it a library term predicts on
     held-out segments though its effect was not credited (``screens``: the diagnosis's last
-    round, ``screened_structure``)."""
+    round, ``screened_structure``), and so is a friction level that grows with the torque the joint
+    carries (``load``: ``bench.load_torque.carried``; None for a friction-torque record)."""
     out = _assess(final, rms, floor, predictability, friction_level, replay_rms)
     hit = screened_structure(screens or [], friction_level, replay_rms)
     out["screened"] = None
@@ -259,6 +267,22 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
             out["evidence"] = f"{told}.  Besides, {out['evidence']}"
         else:
             out["evidence"] += f"; and {what}: look for {look}"
+    out["load"] = load
+    if load_torque.grows(load, friction_level):
+        # only the verdict, as the bias: a gear's load-dependent friction is no library effect
+        eff = {k: 100 * load[k]["effect"] / friction_level for k in load_torque.TORQUES}
+        what = (f"the friction level grows with the torque the joint carries: within the motion segments the level "
+                f"error rises by {eff['recorded']:.2g} % of the Coulomb level over the spread of the recorded torque "
+                f"(t = {load['recorded']['t']:.1f}) and by {eff['needed']:.2g} % over that of the torque the motion needs "
+                f"(t = {load['needed']['t']:.1f}), the speed held apart")
+        out["look_for"].append(LOAD_PHYSICS)
+        if not out["structured"]:
+            out.update(structured=True, evidence=f"the final model leaves a structured residual that no effect in the "
+                                                 f"library explains: {what}; LuGre's Fc then sits at the average "
+                                                 f"load's level; look for {LOAD_PHYSICS}")
+        else:
+            # the one "look for" stays the first structure's; look_for lists both
+            out["evidence"] += f"; and {what}, a sign of {LOAD_PHYSICS}"
     if load_encoder and out["structured"]:
         gear = ("this record's encoder is on the load, where a gear is fitted only with all its "
                 "friction on the motor: record the motor side to have friction beyond the gear fitted")

@@ -315,3 +315,31 @@ def test_closed_loop_records_of_another_simulator(joint, seed, gear, key, true):
     # spring left 10.9 N·m against a noise of 8.8 (a clean record's); the fit ends at the noise
     assert doc["final"]["rms_error"] <= 0.85 * doc["baseline"]["rms_error"]
     assert abs(doc["final"]["parameters"][key] / true - 1) < 0.10, doc["final"]["parameters"]
+
+
+def _loaded_mesh(joint: str, excitation: str, mu: float, seed: int) -> tuple:
+    spec = PRESETS[joint]
+    kw = dict(torque=two_tones(spec)) if excitation == "two tones" else dict(pd=(6.0, 0.4 * _travel(spec), 1.5))
+    rec, _ = independent_record(spec, seed=seed, disturbance=0.01 * spec.friction.Fc, disturbance_tau=0.05,
+                                drop=0.01, physics=dict(load_mu=mu), **kw)
+    doc = _report(rec)
+    u = doc["unexplained"]
+    return (joint, excitation, mu, [d["effect"] for d in doc["diagnosis"] if d["significant"]], u["structured"],
+            "grows with the torque the joint carries" in u["evidence"], u["load"], u["evidence"][:160])
+
+
+def test_friction_that_grows_with_the_carried_torque_is_unexplained_under_two_tones():
+    """The other simulator's loaded mesh (the levels grow by mu |torque| / Fc) under two tones:
+    LuGre took it as a higher Fc (6-32 %) and "nothing left" (fresh seeds 10130-10141, before
+    ``bench.load_torque``, which regresses the level error on the carried torque within the
+    motion segments; tuned on 1650-1687 and 1700-1961).  Fresh seeds 10142-10147 missed 3 of 6
+    under its first t (over per-segment slopes) and so shaped the jackknife t; 10148-10153, fresh
+    for it: two tones 3 of 3 flagged, PID tracking 1 of 3 (README known limits: not asserted).
+    These seeds were not looked at.  Nothing may be credited, and the verdict must name the load.
+    At most one wrong."""
+    from tests.record_pool import map_records
+    jobs = [(j, "two tones", mu, 10154 + i) for i, (j, mu) in enumerate(
+        [("j1", 0.1), ("j2", 0.15), ("j3", 0.1), ("j1", 0.15), ("j2", 0.1), ("j3", 0.15)])]
+    got = map_records(_loaded_mesh, jobs)
+    wrong = [g for g in got if g[3] or not g[4] or not g[5]]
+    assert len(wrong) <= 1, wrong
