@@ -19,8 +19,7 @@ decides.  A friction-torque record (inertia 0) carries no torque the analysis se
 What it cannot tell apart: an inertia other than the declared one.  Within a motion segment the
 torque does not change sign (the friction brakes the joint, not the drive: no sliding sample of
 30 tuning records, clean, meshes and inertia errors, 1710-1715, 1800-1817, 1983-1994, had the
-torque against the motion), so M q'' = tau - F is linear in |tau|
-just as mu |tau| is.  The inertia_error effect fits it unless a felt disturbance hides it (its
+torque against the motion), so M q'' = tau - F is linear in |tau| just as mu |tau| is.  The inertia_error effect fits it unless a felt disturbance hides it (its
 regressor q'' carries the disturbance; tuning 1990 and 1993, j2 and j4 15 % heavier under a
 felt 2-3 % of Fc: nothing named, both readings 3.7-6.7 % of Fc; the only two flagged of 26
 inertia errors 0.8-1.5 x under a felt 1-3 %, 1970-1995), so the hint names both."""
