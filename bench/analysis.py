@@ -91,11 +91,12 @@ class Analysis:
                                          "significant": c.significant} for c in s.screens]}
                         for s in d.steps]
         alpha = lugre["alpha"]
+        data = self.ident.data
+        residual = data.friction - d.contexts[-1].model     # the final model's
         doc["residuals"] = {
             "baseline": breakdown(self.ident.data, self.ident.result.residual, alpha),
-            "final": breakdown(self.ident.data, self.ident.data.friction - d.contexts[-1].model, alpha),
+            "final": breakdown(self.ident.data, residual, alpha),
         }
-        data = self.ident.data
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, d.noise_floor,
                                     self.predictability(), data.coulomb, d.replay_rms,
                                     lugre=(doc["parameters"], doc["uncertainty"]),
@@ -103,7 +104,7 @@ class Analysis:
                                     torque_unit="N·m" if data.revolute else "N",
                                     # the last round's terms: none is in the final model
                                     screens=[(c.effect, c.explained, c.removed_rms) for c in d.remaining],
-                                    load=load_torque.carried(data.c, data.friction - d.contexts[-1].model, data.mask)
+                                    load=load_torque.carried(data.c, residual, data.mask)
                                     if data.inertia > 0 else None)
         if doc["unexplained"]["structured"]:
             structure_spread.widened(doc, *self.structure_spread(doc["uncertainty"]))

@@ -19,10 +19,11 @@ decides.  A friction-torque record (inertia 0) carries no torque the analysis se
 What it cannot tell apart: an inertia other than the declared one.  Within a motion segment the
 torque does not change sign (the friction brakes the joint, not the drive: no sliding sample of
 30 tuning records, clean, meshes and inertia errors, 1710-1715, 1800-1817, 1983-1994, had the
-torque against the motion), so M q'' = tau - F is linear in |tau| just as mu |tau| is.  The inertia_error effect fits it unless a felt disturbance hides it (its
-regressor q'' carries the disturbance; tuning 1990 and 1993, j2 and j4 15 % heavier under a
-felt 2-3 % of Fc: nothing named, both readings 3.7-6.7 % of Fc; the only two flagged of 26
-inertia errors 0.8-1.5 x under a felt 1-3 %, 1970-1995), so the hint names both."""
+torque against the motion), so M q'' = tau - F is linear in |tau| just as mu |tau| is.  The
+inertia_error effect fits it unless a felt disturbance hides it (its regressor q'' carries the
+disturbance; tuning 1990 and 1993, j2 and j4 15 % heavier under a felt 2-3 % of Fc: nothing
+named, both readings 3.7-6.7 % of Fc; the only two flagged of 26 inertia errors 0.8-1.5 x under
+a felt 1-3 %, 1970-1995), so the hint names both."""
 from __future__ import annotations
 
 import math
@@ -53,16 +54,16 @@ def carried(c, residual: np.ndarray, mask: np.ndarray) -> dict:
     per-segment slopes)."""
     segs = sliding_segments(c, mask, LEAST)
     out = {"segments": len(segs)}
+    if len(segs) < MIN_SEGMENTS:
+        return out | {name: {"effect": 0.0, "t": 0.0} for name in TORQUES}
+    # what both torques share, per segment: the level error and the speed, centred
+    shared = [(_centred(residual[sel] * np.sign(c.v[sel])), _centred(np.abs(c.v[sel]))) for sel in segs]
     for name, x in (("recorded", np.abs(c.tau)), ("needed", np.abs(c.tau - residual))):
-        if len(segs) < MIN_SEGMENTS:
-            out[name] = {"effect": 0.0, "t": 0.0}
-            continue
         # per segment, the centred normal equations: pooled and leave-one-out fits are sums
         parts = []
-        for sel in segs:
-            A = np.c_[x[sel] - x[sel].mean(), np.abs(c.v[sel]) - np.abs(c.v[sel]).mean()]
-            y = residual[sel] * np.sign(c.v[sel])
-            parts.append((A.T @ A, A.T @ (y - y.mean()), float(np.sum(A[:, 0] ** 2)), len(sel)))
+        for sel, (y, speed) in zip(segs, shared):
+            A = np.c_[_centred(x[sel]), speed]
+            parts.append((A.T @ A, A.T @ y, float(np.sum(A[:, 0] ** 2)), len(sel)))
         G = sum(p[0] for p in parts)
         g = sum(p[1] for p in parts)
         spread = math.sqrt(sum(p[2] for p in parts) / sum(p[3] for p in parts))
@@ -72,6 +73,10 @@ def carried(c, residual: np.ndarray, mask: np.ndarray) -> dict:
         se = math.sqrt((n - 1) / n * float(np.sum((loo - loo.mean()) ** 2)))
         out[name] = {"effect": slope * spread, "t": slope / se if se > 0 else 0.0}
     return out
+
+
+def _centred(u: np.ndarray) -> np.ndarray:
+    return u - u.mean()
 
 
 def _slope(G: np.ndarray, g: np.ndarray) -> float:
