@@ -278,8 +278,8 @@ def assess(final: dict, rms: float | None, floor: float | None, predictability: 
         out["look_for"].append(LOAD_PHYSICS)
         if not out["structured"]:
             out.update(structured=True, evidence=f"the final model leaves a structured residual that no effect in the "
-                                                 f"library explains: {what}; LuGre's Fc then sits at the average "
-                                                 f"load's level; look for {LOAD_PHYSICS}")
+                                                 f"library explains: {what}; if it is a load, LuGre's Fc sits at the "
+                                                 f"average load's level; look for {LOAD_PHYSICS}")
         else:
             # the one "look for" stays the first structure's; look_for lists both
             out["evidence"] += f"; and {what}, a sign of {LOAD_PHYSICS}"

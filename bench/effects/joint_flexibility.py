@@ -96,6 +96,20 @@ class JointFlexibility(GearEffect):
                 and floor_ok and values["flex_damping"] <= MAX_DAMPING
                 and self.gear_credible(values, ctx))
 
+    def fails_at_end(self, values, ctx):
+        # credible when its round added it, but refitted beside a later effect the spring may
+        # flatten into a smooth low-pass that shapes whatever is left: a loaded gear mesh under
+        # PID tracking (j1, independent simulator, tuning seed 1825) was told as a 9.6 Hz
+        # spring of damping 0.009 that ended at 14.8 Hz, damping 0.83, beside a torque lag
+        zeta, f = values["flex_damping"], values["flex_frequency"]
+        if zeta > MAX_DAMPING:
+            return (f"refitted beside the other effects its damping ratio ended at {zeta:.2g}, a smooth "
+                    f"low-pass rather than a resonance that rings")
+        if not slowest(ctx.data.c) <= f <= ctx.data.c.cutoff:
+            return (f"refitted beside the other effects its resonance ended at {f:.3g} Hz, outside the "
+                    f"band it can be seen in ({slowest(ctx.data.c):.3g}-{ctx.data.c.cutoff:.3g} Hz)")
+        return ""
+
     def apply(self, values, extra, ev):
         extra["flex_frequency"] = values["flex_frequency"]
         extra["flex_damping"] = values["flex_damping"]

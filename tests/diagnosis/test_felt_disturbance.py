@@ -46,8 +46,7 @@ def test_an_inertia_error_under_a_felt_disturbance_is_named_or_said_to_be_a_clos
         left = doc["unexplained"]
         # structure left only with the carried-torque hint, which names the inertia
         # (``bench.load_torque``: within a motion M q'' follows the torque as mu |tau| does)
-        assert not left["structured"] or ("check the declared inertia" in left["evidence"]
-                                          or CHECK_INERTIA in " ".join(left["look_for"])), (seed, left["evidence"])
+        assert not left["structured"] or CHECK_INERTIA in " ".join(left["look_for"]), (seed, left["evidence"])
         if top["effect"] == "inertia_error" and top["significant"]:
             truth = spec.inertia * (ratio - 1.0)
             assert abs(doc["final"]["parameters"]["inertia_error"] / truth - 1) < 0.10, (seed, doc["final"])

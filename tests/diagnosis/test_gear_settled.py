@@ -42,3 +42,16 @@ def test_the_widened_warning_says_where_the_named_resonance_lies():
     assert "lies above the default comparison band (10 Hz" in widened_warning(10.0, 30.0, 14.5)
     near = widened_warning(12.0, 36.0, 9.68)
     assert "above" not in near and "named at 9.68 Hz only at a band wider" in near and "36 Hz" in near
+
+
+def test_a_spring_refitted_into_a_low_pass_or_out_of_its_band_fails_at_the_end():
+    """``JointFlexibility.fails_at_end``: the final values must still describe a resonance that
+    rings, inside the band the record shows (twice the excitation up to the comparison cutoff)."""
+    from bench.effects.joint_flexibility import MAX_DAMPING, JointFlexibility
+    flex = JointFlexibility()
+    ctx = SimpleNamespace(data=SimpleNamespace(c=SimpleNamespace(frequency=0.5, cutoff=20.0)))
+    assert flex.fails_at_end({"flex_damping": 0.05, "flex_frequency": 9.5}, ctx) == ""
+    assert flex.fails_at_end({"flex_damping": MAX_DAMPING, "flex_frequency": 9.5}, ctx) == ""
+    assert "0.83" in flex.fails_at_end({"flex_damping": 0.83, "flex_frequency": 14.8}, ctx)
+    assert "0.6 Hz" in flex.fails_at_end({"flex_damping": 0.05, "flex_frequency": 0.6}, ctx)
+    assert "25 Hz" in flex.fails_at_end({"flex_damping": 0.05, "flex_frequency": 25.0}, ctx)
