@@ -20,6 +20,7 @@ from independent_joint import independent_record, two_tones  # noqa: E402
 from tests.diagnosis.test_independent_records import _travel  # noqa: E402
 
 from bench.analysis import analyze_record  # noqa: E402
+from bench.load_torque import TORQUES  # noqa: E402
 from virtual_drives.conditions import make_record  # noqa: E402
 from virtual_drives.presets import PRESETS  # noqa: E402
 
@@ -53,4 +54,4 @@ if __name__ == "__main__":
                               structured=doc["unexplained"]["structured"],
                               Fc=round(doc["parameters"]["Fc"] / spec.friction.Fc - 1, 3),
                               load={k: (round(100 * load[k]["effect"] / fc, 2), round(load[k]["t"], 1))
-                                    for k in ("recorded", "needed") if k in load})), flush=True)
+                                    for k in TORQUES if k in load})), flush=True)
