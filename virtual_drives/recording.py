@@ -241,19 +241,26 @@ def pd_gains(spec: JointSpec, rec: Recording, comps) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _closed_loop(q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0, kp, kd, res, limit):
+def _closed_loop(q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0, kp, kd, res, limit,
+                 gear_sub=0, M_motor=0.0, M_load=0.0, gap=0.0, w2=0.0, c2=0.0, load=False):
     """PD on the quantised encoder (velocity by backward difference), stepped one control
-    period at a time through the shared physics."""
+    period at a time through the shared physics.  A geared joint (``gear_sub`` sub-steps
+    and the ``Gear``'s split) steps the motor and the load together; the loop closes on the
+    motor's encoder, as a drive's does (closed on the load's through a 6-24 Hz gear spring,
+    the condition's PD left every preset's record refused as never sliding: tuning seeds
+    1520-1525), and the record holds the side the record's encoder reads (the load's when
+    ``load``)."""
     n = q_ref.shape[0]
     cmd, felt = np.empty(n), np.empty(n)
     q, v, z = np.empty(n), np.empty(n), np.empty(n)
     one = np.empty(1)
     qi, vi, zi = q0, 0.0, 0.0
+    ql, vl, zl = q0, 0.0, 0.0     # the load's state, when geared
     qm_prev = q0 if res <= 0 else round(q0 / res) * res
     k = int(math.floor(lag_steps))
     frac = lag_steps - k
     for i in range(n):
-        q[i], v[i], z[i] = qi, vi, zi
+        q[i], v[i], z[i] = (ql, vl, zi) if load else (qi, vi, zi)
         qm = qi if res <= 0 else round(qi / res) * res
         vm = 0.0 if i == 0 else (qm - qm_prev) / dt
         qm_prev = qm
@@ -264,8 +271,12 @@ def _closed_loop(q_ref, v_ref, dist, lag_steps, dt, n_sub, M, p, ev, q0, kp, kd,
         b = cmd[i - k - 1] if i - k - 1 >= 0 else 0.0
         felt[i] = (1.0 - frac) * a + frac * b + dist[i]
         one[0] = felt[i]
-        _, _, _, qi, vi, zi = simulate(one, dt, n_sub, M, p, ev, qi, vi, zi, i * dt)
-    return cmd, felt, q, v, z, qi, vi
+        if gear_sub == 0:
+            _, _, _, qi, vi, zi = simulate(one, dt, n_sub, M, p, ev, qi, vi, zi, i * dt)
+        else:
+            _, _, _, _, _, qi, vi, zi, ql, vl, zl = simulate_two_mass(
+                one, dt, gear_sub, M_motor, M_load, p, ev, gap, w2, c2, qi, vi, zi, ql, vl, i * dt, zl)
+    return cmd, felt, q, v, z, (ql if load else qi), (vl if load else vi)
 
 
 def open_loop_torque(spec: JointSpec, rec: Recording, t: np.ndarray) -> np.ndarray:
@@ -330,9 +341,6 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     res = spec.encoder_resolution if rec.encoder_resolution is None else rec.encoder_resolution
     q_ref = None
     if rec.excitation == "pd":
-        if terms.two_mass(ev):
-            raise InputError("a closed-loop (pd) record of a geared joint (backlash, joint_flexibility) "
-                             "is not emulated yet; use an open-loop excitation")
         comps = reference_components(spec, rec)
         q_ref, v_ref = pd_reference(comps, centred(spec), t)
         if still:   # the reference holds the start pose, then fades in; it fades out to it
@@ -340,9 +348,12 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
             q_ref = centred(spec) + env * (pd_reference(comps, 0.0, t - rec.rest)[0])
             v_ref = np.gradient(q_ref, t)
         kp, kd = pd_gains(spec, rec, comps)
+        gear = Gear.of(spec, ev, dt)
+        split = () if gear is None else (gear.n_sub, gear.M_motor, gear.M_load, gear.gap, gear.w2, gear.c2,
+                                         rec.encoder == "load")
         cmd, felt, q, v, z, q_end, v_end = _closed_loop(
             q_ref, v_ref, dist, torque_lag / dt, dt, n_sub, M, f.vector(), ev,
-            centred(spec), kp, kd, res, spec.torque_limit)
+            centred(spec), kp, kd, res, spec.torque_limit, *split)
     else:
         cmd = open_loop_torque(spec, rec, t - rec.rest)
         if still:   # no torque while the joint rests

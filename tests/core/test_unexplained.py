@@ -64,3 +64,18 @@ def test_a_residual_on_tied_signals_names_the_physics_of_each():
     # what the learner relied on first, then what the tied signal would mean
     from bench.unexplained import SIGNALS
     assert tied["look_for"][:2] == alone["look_for"][:2] and SIGNALS["position"][1] in tied["look_for"]
+
+
+def test_a_screened_structure_tells_to_record_the_side_the_encoder_does_not_read():
+    """A residual a library term predicts on held-out segments though it was not credited
+    follows the dynamics: the side to record as well is the load's from a motor encoder and
+    the motor's from a load encoder (a j4 load-side record under PD with backlash, tuning seed
+    1505, was told to record the load's side)."""
+    final, p = _presliding_residual()
+    quiet = dict(p, predicted_fraction=0.02, t=0.3, structured_rms=0.0, relies_on=[], importance={})
+    screens = [("backlash", 0.4, 30.0)]          # 2 % of Fc, well above MIN_SIZE
+    motor = assess(final, 25.0, 20.0, quiet, 1500.0, screens=screens)
+    load = assess(final, 25.0, 20.0, quiet, 1500.0, screens=screens, load_encoder=True)
+    assert motor["structured"] and load["structured"]
+    assert "record the load's side" in motor["evidence"] and "record the motor's side" not in motor["evidence"]
+    assert "record the motor's side" in load["evidence"] and "record the load's side" not in load["evidence"]
