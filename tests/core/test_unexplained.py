@@ -79,3 +79,15 @@ def test_a_screened_structure_tells_to_record_the_side_the_encoder_does_not_read
     assert motor["structured"] and load["structured"]
     assert "record the load's side" in motor["evidence"] and "record the motor's side" not in motor["evidence"]
     assert "record the motor's side" in load["evidence"] and "record the load's side" not in load["evidence"]
+
+
+def test_a_screened_term_in_the_position_points_at_the_position_first():
+    """A friction level along the travel that does not repeat one pitch further on is
+    predicted by a position term that is not credited (j2 under PD, tuning seed 1430): the
+    first thing to look for is a position-dependent effect, not the dynamics."""
+    final, p = _presliding_residual()
+    quiet = dict(p, predicted_fraction=0.02, t=0.3, structured_rms=0.0, relies_on=[], importance={})
+    out = assess(final, 25.0, 20.0, quiet, 1500.0, screens=[("position_dependent_friction", 0.9, 60.0)])
+    lag = assess(final, 25.0, 20.0, quiet, 1500.0, screens=[("torque_lag", 0.9, 60.0)])
+    assert out["structured"] and "not periodic" in out["look_for"][0], out["look_for"]
+    assert "not periodic" not in " ".join(lag["look_for"]) and "dynamics" in lag["look_for"][0]
