@@ -51,7 +51,7 @@ def simulate(
     torque_noise: Optional[float] = typer.Option(None, help="std of the torque (or friction) reading noise: measurement noise only"),
     encoder_resolution: Optional[float] = typer.Option(None, help="position per encoder count"),
     torque_resolution: Optional[float] = typer.Option(None, help="the torque (or friction) reading's step, e.g. a CiA 402 drive's 0x6077 in per-mille of its rated torque"),
-    encoder: Optional[str] = typer.Option(None, help="a geared joint's encoder (backlash, joint_flexibility): motor (default) or load; written to the record as 'encoder'"),
+    encoder: Optional[str] = typer.Option(None, help="a geared joint's encoder (backlash, joint_flexibility): motor (default) or load; written to the record as 'encoder' (a PD loop closes on the motor's either way)"),
     logger: bool = typer.Option(False, "--logger", help="sample like a PC logger: jittered 1-13 ms steps, dropped samples, occasional stalls"),
     logger_step: Optional[float] = typer.Option(None, help="the logger's mean step \\[s] (default 0.004; steps stay within 1-13 ms)"),
     logger_drop: Optional[float] = typer.Option(None, help="probability that the logger loses a sample (default 0.01)"),
