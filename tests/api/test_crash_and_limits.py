@@ -107,11 +107,11 @@ def test_latch_and_interrupted_runs_survive_kill9(tmp_path):
         d.stop()
 
 
-def test_kill9_leaves_no_process_behind(tmp_path):
-    from bench.cli import run as cli
-    record = tmp_path / "j3.csv"
-    assert cli(["simulate", "--joint", "j3", "--duration", "10", "--seed", "5021", "-o", str(record)]) == 0
-    s = ServeProcess("macro4", tmp_path / "data")
+def _kill9_while_fitting(tmp_path, record, attempt):
+    """Start an identify run of j4, kill -9 the server once the run says it fits: (the
+    descendants still alive 60 s on, the wall time of the kill, j4's models, the run's state)."""
+    data = tmp_path / f"data{attempt}"
+    s = ServeProcess("macro4", data)
     try:
         with s.client() as c:
             run_id = c.post("/runs", json={"procedure": "identify", "joints": ["j4"], "options": SHORT}).json()["id"]
@@ -126,22 +126,40 @@ def test_kill9_leaves_no_process_behind(tmp_path):
             sse_events(c, f"/runs/{run_id}/events", stop=lambda ev: ev["event"] == "stage"
                        and (ev["data"].get("data") or {}).get("stage") == "identify")
     finally:
+        kill_wall = time.time()
         _kill9(s)
     # a run caught moving stops and exits within a second (0.6-1.2 s); one caught fitting (its
     # joints parked) stops at the fit's next evaluation or held-out learner (bench.checkpoint)
     # -- before, it finished the fit: 11-36 s here on a loaded 2-core machine (2026-11-28,
     # j4's diagnosis).  A learner took up to 5+ s beside the full suite (py-spy), and a CI
-    # machine may be slower, hence the margin (the loop ends as soon as all are gone); that
-    # the fit was stopped, not finished, is the model's absence below
+    # machine may be slower, hence the margin (the loop ends as soon as all are gone)
     killed = time.monotonic()
     while any(_alive(p) for p in children) and time.monotonic() < killed + 60.0:
         time.sleep(0.1)
     left = {p: open(f"/proc/{p}/cmdline").read().replace("\0", " ")[:100] for p in children if _alive(p)}
-    assert not left, f"still alive 60 s after kill -9 of the server: {left}"
     from bench.store import Store
-    store = Store(tmp_path / "data")
-    assert store.list_models("j4") == [], "the fit ran to its end: the kill landed after it"
-    assert store.get_run(run_id)["state"] == "interrupted", store.get_run(run_id)
+    store = Store(data)
+    return left, kill_wall, store.list_models("j4"), store.get_run(run_id)
+
+
+def test_kill9_leaves_no_process_behind(tmp_path):
+    """No process outlives a kill -9 of the server, and a fit caught by it keeps no model.
+    The kill follows the run's "identify" event as the event stream delivers it; on a loaded
+    machine that can come after a short fit has ended (CI 2026-12-06, beside measurement
+    scripts: j4's model stored before the kill), so a kill that landed after the fit is tried
+    again -- a model stored after the kill fails at once."""
+    from bench.cli import run as cli
+    record = tmp_path / "j3.csv"
+    assert cli(["simulate", "--joint", "j3", "--duration", "10", "--seed", "5021", "-o", str(record)]) == 0
+    for attempt in range(3):
+        left, kill_wall, models, run = _kill9_while_fitting(tmp_path, record, attempt)
+        assert not left, f"still alive 60 s after kill -9 of the server: {left}"
+        late = [m for m in models if m["created"] >= kill_wall]
+        assert not late, f"the fit ran on after the kill and stored a model: {late}"
+        if not models:      # the kill landed during the fit, and the fit stopped
+            assert run["state"] == "interrupted", run
+            return
+    raise AssertionError("the kill landed after j4's fit in 3 of 3 attempts: the fit was never caught")
 
 
 def test_60mb_body_without_key_is_refused_before_it_is_read(tmp_path):
