@@ -66,13 +66,19 @@ def test_a_residual_on_tied_signals_names_the_physics_of_each():
     assert tied["look_for"][:2] == alone["look_for"][:2] and SIGNALS["position"][1] in tied["look_for"]
 
 
+def _unpredicted_residual() -> tuple[dict, dict]:
+    """The presliding residual's breakdown with a state learner that predicts nothing: only
+    a screened library term (``screens``) can call it structure."""
+    final, p = _presliding_residual()
+    return final, dict(p, predicted_fraction=0.02, t=0.3, structured_rms=0.0, relies_on=[], importance={})
+
+
 def test_a_screened_structure_tells_to_record_the_side_the_encoder_does_not_read():
     """A residual a library term predicts on held-out segments though it was not credited
     follows the dynamics: the side to record as well is the load's from a motor encoder and
     the motor's from a load encoder (a j4 load-side record under PD with backlash, tuning seed
     1505, was told to record the load's side)."""
-    final, p = _presliding_residual()
-    quiet = dict(p, predicted_fraction=0.02, t=0.3, structured_rms=0.0, relies_on=[], importance={})
+    final, quiet = _unpredicted_residual()
     screens = [("backlash", 0.4, 30.0)]          # 2 % of Fc, well above MIN_SIZE
     motor = assess(final, 25.0, 20.0, quiet, 1500.0, screens=screens)
     load = assess(final, 25.0, 20.0, quiet, 1500.0, screens=screens, load_encoder=True)
@@ -85,8 +91,7 @@ def test_a_screened_term_in_the_position_points_at_the_position_first():
     """A friction level along the travel that does not repeat one pitch further on is
     predicted by a position term that is not credited (j2 under PD, tuning seed 1430): the
     first thing to look for is a position-dependent effect, not the dynamics."""
-    final, p = _presliding_residual()
-    quiet = dict(p, predicted_fraction=0.02, t=0.3, structured_rms=0.0, relies_on=[], importance={})
+    final, quiet = _unpredicted_residual()
     out = assess(final, 25.0, 20.0, quiet, 1500.0, screens=[("position_dependent_friction", 0.9, 60.0)])
     lag = assess(final, 25.0, 20.0, quiet, 1500.0, screens=[("torque_lag", 0.9, 60.0)])
     assert out["structured"] and "not periodic" in out["look_for"][0], out["look_for"]

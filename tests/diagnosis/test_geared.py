@@ -127,16 +127,21 @@ def test_a_gear_spring_seen_from_the_load_is_named_measured_and_cuts_the_error(j
     assert "motor side" in top["evidence"]
 
 
-def _load_side_report(tmp_path, joint, seed, effect, *condition):
-    """``bench simulate --encoder load`` then ``bench analyze``, through the command line:
+def _cli_report(tmp_path, joint, seed, effect, *options):
+    """``bench simulate`` (with ``options``) then ``bench analyze``, through the command line:
     (the CSV's text, the JSON report)."""
     csv, js = tmp_path / f"{joint}.csv", tmp_path / f"{joint}.json"
-    r = CliRunner().invoke(cli_app, ["simulate", "--joint", joint, "--seed", str(seed), "--encoder", "load",
-                                     *condition, "--effect", effect, "-o", str(csv)])
+    r = CliRunner().invoke(cli_app, ["simulate", "--joint", joint, "--seed", str(seed),
+                                     *options, "--effect", effect, "-o", str(csv)])
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
     assert r.exit_code == 0, r.output
     return csv.read_text(), json.loads(js.read_text())
+
+
+def _load_side_report(tmp_path, joint, seed, effect, *condition):
+    """``bench simulate --encoder load`` then ``bench analyze`` (``_cli_report``)."""
+    return _cli_report(tmp_path, joint, seed, effect, "--encoder", "load", *condition)
 
 
 LOGGER = ("--condition", "jittered timestamps with dropped samples")
@@ -239,13 +244,7 @@ def test_a_geared_joint_under_pd_tracking_gets_its_gear_effect_named_and_no_othe
 def test_the_command_line_records_a_pd_tracked_geared_joint(tmp_path):
     """bench simulate writes a closed-loop record of a geared joint (it refused one until
     2026-12-06) and bench analyze names its backlash and measures it."""
-    csv, js = tmp_path / "j2.csv", tmp_path / "j2.json"
-    r = CliRunner().invoke(cli_app, ["simulate", "--joint", "j2", "--seed", "10200", "--condition",
-                                     "PD closed-loop tracking", "--effect", "backlash:width=0.003", "-o", str(csv)])
-    assert r.exit_code == 0, r.output
-    r = CliRunner().invoke(cli_app, ["analyze", str(csv), "--json", str(js)])
-    assert r.exit_code == 0, r.output
-    doc = json.loads(js.read_text())
+    _, doc = _cli_report(tmp_path, "j2", 10200, "backlash:width=0.003", "--condition", "PD closed-loop tracking")
     assert doc["final"]["effects"] == ["backlash"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["bl_width"] / 0.003 - 1) < 0.10
     assert not doc["unexplained"]["structured"], doc["unexplained"]["evidence"]
