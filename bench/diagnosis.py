@@ -154,7 +154,7 @@ MATERIAL_SHIFT = 0.02
 # when the fade, fitted beside the same model instead, leaves this share of its held-out error
 # or less.  Our generator, PC logger (tuning 1713-1717, j1-j3): fades credited as an exponent
 # of 2.5-3.1 "below the size ... but it moves Fc", the fade leaving 0.51-0.70x the exponent's
-# error (Fc within 0.1-0.6 % against 0.6-5.8 %); true exponents of 0.5-2.5 (1730-1741, PC logger
+# error (Fc within 0.1-0.4 % against 0.6-6 %); true exponents of 0.5-2.5 (1730-1741, PC logger
 # and PD, six joints): the fade left 1.12-9.8x where the exponent was named, 0.97x on a linear
 # record where nothing was (its fit broken: Fc 2 % of the truth), or did not screen at all.
 FADE_OVER_SHAPE = 0.8
