@@ -3,8 +3,6 @@ motor), on the paper's geared Table II joints and on direct drives.
 
 Seeds here (5800+) were never used while tuning (tools/tune_diagnosis.py: 1000-1999)."""
 import json
-import tempfile
-from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -221,10 +219,8 @@ def _pd_geared(effect, joint, encoder, seed, via_csv=False):
     spec = PRESETS[joint]
     texts = random_effects(spec, [effect], seed)
     rec, _ = make_record(spec, "PD closed-loop tracking", seed, effects=texts, encoder=encoder)
-    if via_csv:
-        with tempfile.TemporaryDirectory() as tmp:
-            rec.to_csv(Path(tmp) / "record.csv")
-            rec = read_record(Path(tmp) / "record.csv")
+    if via_csv:   # the CSV's text, parsed as a file's (no need for one on disk)
+        rec = read_record(rec.to_csv().encode(), name="record.csv")
     doc = analyze_record(rec).report()
     param, key = HYPER[effect]
     top = doc["diagnosis"][0]
