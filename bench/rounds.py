@@ -219,3 +219,9 @@ def light_gear(effect, values: dict, inertia: float) -> bool:
 def over_gear_text(gear: str, gear_rms: float) -> str:
     return (f" — chosen over {gear}, which left more ({gear_rms:.3g}) where both act: at the "
             f"transitions into and out of sliding")
+
+
+def over_shape_text(shape_rms: float) -> str:
+    return (f" — chosen over a sharper Stribeck dip (stribeck_shape), which left more "
+            f"({shape_rms:.3g}): the map's shape was not what the record missed, the damping "
+            f"at the transitions was")
