@@ -12,6 +12,7 @@ import time
 
 from bench.analysis import analyze_record
 from bench.effects import EFFECTS
+from bench.effects.inject import parse_injection
 from virtual_drives.presets import PRESETS
 from virtual_drives.scenarios import simulate_scenario
 
@@ -23,7 +24,7 @@ def measured(eff: str, texts: list[str], values: dict) -> str:
     if eff not in MEASURED or MEASURED[eff][0] not in values:
         return ""
     name, key = MEASURED[eff]
-    true = float(texts[0].split(f"{key}=")[1].split(",")[0])
+    true = float(parse_injection(texts[0])[1][key])
     return f" {key} found/true={values[name] / true:.3f}"
 
 

@@ -12,6 +12,7 @@ import dataclasses
 import pytest
 
 from bench.analysis import analyze_record
+from bench.effects.inject import parse_injection
 from independent_joint import independent_record
 from virtual_drives.conditions import make_record
 from virtual_drives.presets import PRESETS
@@ -104,7 +105,7 @@ def _fade_on_a_logger(joint, seed):
     texts = random_effects(spec, ["damping_fade"], seed)
     rec, _ = make_record(spec, "jittered timestamps with dropped samples", seed, effects=texts)
     doc = analyze_record(rec).report()
-    doc["true_vd"] = float(texts[0].split("vd=")[1].split(",")[0])
+    doc["true_vd"] = float(parse_injection(texts[0])[1]["vd"])
     return doc
 
 

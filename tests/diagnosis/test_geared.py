@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from bench.analysis import analyze_record
 from bench.cli import app as cli_app
 from bench.effects.backlash import MOTOR_SHARE
-from bench.effects.inject import parse_injections
+from bench.effects.inject import parse_injection, parse_injections
 from bench.readers import read_record
 from virtual_drives.conditions import make_record
 from virtual_drives.joint import simulate_record
@@ -23,7 +23,7 @@ HYPER = {"backlash": ("bl_width", "width"), "joint_flexibility": ("flex_frequenc
 
 
 def injected(texts, key):
-    return float(texts[0].split(f"{key}=")[1].split(",")[0])
+    return float(parse_injection(texts[0])[1][key])
 
 
 @pytest.mark.parametrize("effect,joint,seed", [
