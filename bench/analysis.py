@@ -25,6 +25,7 @@ from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, judged
 from bench.perfect_model import replay, torque_step
+from bench.measured_start import measured_start
 from bench.reading_warnings import reading_warnings, refusal_hint
 from bench.predictability import assess_predictability
 from bench.records import Record
@@ -320,8 +321,26 @@ def _check_finite(ident: Identification, diag: Diagnosis | None) -> None:
 
 
 def _diagnose(ident: Identification, rec: Record, add):
+    """The diagnosis from the LuGre fit; where that fit left a level on a bound of its search,
+    also from Section III's estimates (``bench.measured_start``), keeping whichever final
+    model leaves the lower held-out error."""
+    fitted = _diagnose_from(ident, rec, add, ident.result)
+    start, note = measured_start(ident.result, ident.initial)
+    if note is None:
+        return fitted
+    measured = _diagnose_from(ident, rec, add, start)
+    if not measured.final_rms < fitted.final_rms:
+        return fitted
+    note += f" (its final model leaves {measured.final_rms:.4g} held out, the fit's {fitted.final_rms:.4g})"
+    if note not in ident.warnings:
+        ident.warnings.append(note)
+    return measured
+
+
+def _diagnose_from(ident: Identification, rec: Record, add, start):
+    """The diagnosis started from ``start`` (a LuGre fit's values)."""
     data = ident.data
-    twin, twin_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff)
+    twin, twin_residual = replay(rec, data, start.values, ident.inertia, data.c.cutoff)
     replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
     # a coarse torque reading's steps follow the motion: an effect must explain more of the
     # record than of a perfect model read through them (a position series took them on clean
@@ -329,7 +348,7 @@ def _diagnose(ident: Identification, rec: Record, add):
     step = torque_step(rec, ident.data.coulomb)
     stepped, stepped_rms = None, 0.0
     if step > 0 and not add:
-        stepped, stepped_residual = replay(rec, data, ident.result.values, ident.inertia, data.c.cutoff,
+        stepped, stepped_residual = replay(rec, data, start.values, ident.inertia, data.c.cutoff,
                                            tau_step=step)
         stepped_rms = float(np.sqrt(np.mean(stepped_residual[stepped.mask] ** 2)))
     floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
@@ -337,7 +356,7 @@ def _diagnose(ident: Identification, rec: Record, add):
     meta = dict(rec.meta, torque_hold=ident.fit["torque_hold"])
 
     def run():
-        diag = diagnose(data, ident.result, meta, ident.inertia, add=add, auto=not add, twin=twin,
+        diag = diagnose(data, start, meta, ident.inertia, add=add, auto=not add, twin=twin,
                         stepped_twin=stepped)
         diag.replay_rms, diag.noise_floor, diag.stepped_replay_rms = replay_rms, floor, stepped_rms
         if add:
