@@ -56,6 +56,8 @@ class Analysis:
             self.clock_room.told(doc)
             return doc
         d = self.diagnosis
+        if d.started_from:     # not the identification's: a wider band's diagnosis may replace this one
+            doc["warnings"] = doc.get("warnings", []) + [d.started_from]
         final = d.model.result
         lugre = {k: float(d.model.values[k]) for k in LUGRE_KEYS}
         doc["baseline"] = {"rms_error": d.baseline_rms, "parameters": doc["parameters"],
@@ -331,9 +333,8 @@ def _diagnose(ident: Identification, rec: Record, add):
     measured = _diagnose_from(ident, rec, add, start)
     if not measured.final_rms < fitted.final_rms:
         return fitted
-    note += f" (its final model leaves {measured.final_rms:.4g} held out, the fit's {fitted.final_rms:.4g})"
-    if note not in ident.warnings:
-        ident.warnings.append(note)
+    measured.started_from = (f"{note} (its final model leaves {measured.final_rms:.4g} held out, "
+                             f"the fit's {fitted.final_rms:.4g})")
     return measured
 
 

@@ -57,6 +57,9 @@ class Diagnosis:
     chain_mse: float = 0.0         # the same, held out and squared (``Context.chain_mse``)
     noise_floor: float = 0.0       # the record's measurement-noise floor (bench.unexplained)
     start: Model | None = None     # the baseline (LuGre alone)
+    # the warning when it started from Section III's estimates, not the LuGre fit
+    # (``bench.measured_start``): said with the diagnosis it belongs to
+    started_from: str = ""
     # the same diagnosis with friction beyond the gear, when that pass ran and was not kept
     # (``bench.analysis._diagnose``): the wide probe asks for it again rather than rerun it
     beyond: Diagnosis | None = None
