@@ -61,7 +61,10 @@ class Analysis:
         final = d.model.result
         lugre = {k: float(d.model.values[k]) for k in LUGRE_KEYS}
         doc["baseline"] = {"rms_error": d.baseline_rms, "parameters": doc["parameters"],
-                           "fit": dict(doc["fit"])}
+                           "fit": dict(doc["fit"]), "start": "lugre_fit"}
+        if d.started_from:     # the error above is of the values the diagnosis started from
+            doc["baseline"].update(start="section_iii", lugre_fit_parameters=doc["parameters"],
+                                   parameters={k: float(d.start.values[k]) for k in LUGRE_KEYS})
         if d.model.effects:  # the model with effects is the better estimate of LuGre too
             doc["parameters"] = lugre
             doc["uncertainty"] = {k: final.stderr.get(k) for k in LUGRE_KEYS}
@@ -97,7 +100,8 @@ class Analysis:
         data = self.ident.data
         residual = data.friction - d.contexts[-1].model     # the final model's
         doc["residuals"] = {
-            "baseline": breakdown(self.ident.data, self.ident.result.residual, alpha),
+            "baseline": breakdown(self.ident.data, (data.friction - d.contexts[0].model if d.started_from
+                                                    else self.ident.result.residual), alpha),
             "final": breakdown(self.ident.data, residual, alpha),
         }
         doc["unexplained"] = assess(doc["residuals"]["final"], d.final_rms, d.noise_floor,
@@ -326,11 +330,12 @@ def _diagnose(ident: Identification, rec: Record, add):
     """The diagnosis from the LuGre fit; where that fit left a level on a bound of its search,
     also from Section III's estimates (``bench.measured_start``), keeping whichever final
     model leaves the lower held-out error."""
-    fitted = _diagnose_from(ident, rec, add, ident.result)
+    floor = noise_floor(ident.data.c, rec.tau, rec.q, ident.inertia, ident.data.mask)  # of the record, not the start
+    fitted = _diagnose_from(ident, rec, add, ident.result, floor)
     start, note = measured_start(ident.result, ident.initial)
     if note is None:
         return fitted
-    measured = _diagnose_from(ident, rec, add, start)
+    measured = _diagnose_from(ident, rec, add, start, floor)
     if not measured.final_rms < fitted.final_rms:
         return fitted
     measured.started_from = (f"{note} (its final model leaves {measured.final_rms:.4g} held out, "
@@ -338,8 +343,9 @@ def _diagnose(ident: Identification, rec: Record, add):
     return measured
 
 
-def _diagnose_from(ident: Identification, rec: Record, add, start):
-    """The diagnosis started from ``start`` (a LuGre fit's values)."""
+def _diagnose_from(ident: Identification, rec: Record, add, start, floor: float):
+    """The diagnosis started from ``start`` (a LuGre fit's values); ``floor`` is the record's
+    measurement-noise floor (``bench.unexplained.noise_floor``)."""
     data = ident.data
     twin, twin_residual = replay(rec, data, start.values, ident.inertia, data.c.cutoff)
     replay_rms = float(np.sqrt(np.mean(twin_residual[twin.mask] ** 2)))
@@ -352,7 +358,6 @@ def _diagnose_from(ident: Identification, rec: Record, add, start):
         stepped, stepped_residual = replay(rec, data, start.values, ident.inertia, data.c.cutoff,
                                            tau_step=step)
         stepped_rms = float(np.sqrt(np.mean(stepped_residual[stepped.mask] ** 2)))
-    floor = noise_floor(data.c, rec.tau, rec.q, ident.inertia, data.mask)
     # the effects see how the torque was read (held or sampled) as identification decided it
     meta = dict(rec.meta, torque_hold=ident.fit["torque_hold"])
 

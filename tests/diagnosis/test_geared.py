@@ -282,6 +282,12 @@ def _edge_of_search(joint, seed, width):
     right = (_named_right(doc, "backlash", width)
              and all(abs(p[k] / getattr(spec.friction, k) - 1) < 0.05 for k in ("Fc", "Fs", "sigma2")))
     measured = any("edge of its search" in w for w in doc["warnings"])
+    base = doc["baseline"]
+    # the baseline the error fell from is the start's, and says so; the fit's values stay beside it
+    assert (base["start"] == "section_iii") == measured, base
+    if measured:
+        fitted, started = base["lugre_fit_parameters"], base["parameters"]
+        assert any(abs(started[k] / fitted[k] - 1) > 0.5 for k in ("Fc", "Fs", "sigma2")), base
     return doc["final"]["effects"], right, measured
 
 
