@@ -100,6 +100,14 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
                    load_encoder=rec.load_encoder, inertia=M, held_poses=held_spans), M
 
 
+# The median inertial torque |M q''| at the top speeds, as a share of the friction read there,
+# above which a refusal blames the motion's inertia, not a lack of sliding.  Measured
+# 2026-12-06: the rotary motor under PD with a 6.2 ms torque lag (tuning seeds 1894, 1896),
+# refused, 0.95 (4 ms, 1895: identified, 0.47); records that never broke away (j1-j4, linear,
+# rotary at 0.5-0.9 Fs; j2 below Fc from the independent simulator) 0.0008-0.04.
+INERTIA_SWAMPS = 0.25
+
+
 def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = True,
                    M: float = 0.0) -> tuple[float, float, float, np.ndarray]:
     """Eq. 8 on the high-velocity part of the map; raise if the joint never slid.
@@ -164,11 +172,19 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = Tr
         # term; the fit and the diagnosis say what is left, which a refusal would hide.
         return float(np.mean(np.abs(F[hi] - other[hi]))), 0.0, vmax, other
     if coef[0] <= 0 or r2 < 0.8 or agree < 0.9:
+        why = (f"at its highest speeds friction does not follow sgn(v), even allowing for an offset "
+               f"and gravity: R^2 {r2:.2f}, sign agreement {agree:.0%}")
+        inertial = float(np.median(np.abs(M * c.a[hi]))) / max(float(np.median(np.abs(F[hi]))), 1e-300)
+        if inertial >= INERTIA_SWAMPS:
+            raise NotIdentifiable(
+                f"{name}: friction cannot be read off this motion ({why}); there the inertial "
+                f"torque M q'' is {inertial:.2g}x the friction read, so a lag between the torque "
+                f"and the motion or an inertia error swamps it: check that torque and position "
+                f"share one clock and the declared inertia, or record a slower motion in which "
+                f"friction dominates")
         raise NotIdentifiable(
-            f"{name}: the joint never reaches sliding (at its highest speeds friction does not "
-            f"follow sgn(v), even allowing for an offset and gravity: R^2 {r2:.2f}, sign agreement "
-            f"{agree:.0%}); record with a larger torque amplitude or faster motion, so that the "
-            f"joint slides clearly in both directions")
+            f"{name}: the joint never reaches sliding ({why}); record with a larger torque "
+            f"amplitude or faster motion, so that the joint slides clearly in both directions")
     return float(coef[0]), float(max(coef[1], 0.0)), vmax, other
 
 

@@ -117,6 +117,26 @@ def test_a_violent_transient_among_the_top_speeds_does_not_refuse_a_sliding_join
         _check_sliding(stuck, stuck.tau, "record", revolute=False, M=M)
 
 
+def test_a_refusal_where_inertial_torque_swamps_friction_points_at_the_clock_not_the_amplitude():
+    """The rotary motor under PD with a 6 ms torque lag: its top speeds carry an inertial
+    torque about its friction's size, and the lag swamps the friction read there (tuning seed
+    1894 was told to record "a larger torque amplitude or faster motion", which makes that
+    worse).  The refusal says so instead; one that never broke away keeps the plain one."""
+    from virtual_drives.conditions import make_record
+    rec, _ = make_record(PRESETS["rotary"], "PD closed-loop tracking", 10225,
+                         effects=["torque_lag:delay=0.006"])
+    with pytest.raises(NotIdentifiable) as err:
+        identify(rec)
+    said = str(err.value)
+    assert "inertial torque" in said and "share one clock" in said, said
+    assert "larger torque amplitude" not in said and "\n" not in said, said
+    spec = PRESETS["rotary"]
+    stuck = simulate_record(spec, 0.5 * spec.friction.Fs, spec.excitation[1], duration=12.0, seed=10226).record
+    with pytest.raises(NotIdentifiable) as err:
+        identify(stuck)
+    assert "never reaches sliding" in str(err.value) and "inertial" not in str(err.value), str(err.value)
+
+
 def test_the_model_velocity_keeps_the_band_the_encoder_allows():
     """``bench.signals.velocity_band``: 12x the comparison cutoff on a fine encoder, 4x on a
     coarse or noisy position (counts, interpolated jitter) or an encoder on the load, never
