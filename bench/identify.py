@@ -323,11 +323,17 @@ def _damping_scale(sigma0: float, M: float) -> float:
     return 2.0 * math.sqrt(sigma0 * M) if M > 0 else 0.01 * sigma0
 
 
+def section3_complete(est: dict) -> bool:
+    """Did Section III estimate every LuGre value (finite and positive)?"""
+    return all(isinstance(est.get(k), (int, float)) and math.isfinite(est[k]) and est[k] > 0
+               for k in LUGRE_KEYS)
+
+
 def lugre_starts(data: FitData, est: dict, M: float) -> list[dict]:
     """The dynamic cost has local minima: fit from the Section III estimates and from a
     coarse search on the dynamic cost, and keep the better."""
     starts = [_starting_point(data, est, M)]
-    if all(np.isfinite(est[k]) and est[k] > 0 for k in LUGRE_KEYS):
+    if section3_complete(est):
         starts.append({k: est[k] for k in LUGRE_KEYS})
     first = starts[0]
     v_max = est.get("v_max")

@@ -15,10 +15,10 @@ too, kept all it named (the fit's own diagnosis stood where it was better: 1808)
 """
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 from bench.fitting import LUGRE_KEYS, FitResult
+from bench.identify import section3_complete
 
 # a value within e^0.05 of a bound of the search sits on it (the solver stays strictly inside).
 # Where measured (j4 and j2 from the load under PD, tuning 1830-1837) the fits' Fs sat either
@@ -44,14 +44,10 @@ def measured_start(res: FitResult, initial: dict) -> tuple[FitResult, str | None
     """``res``, or -- when it left a level on a bound and Section III estimated every LuGre
     value (``initial``) -- those estimates in its place, and the warning that says so."""
     pinned = levels_on_bound(res)
-    if not pinned or not all(_positive(initial.get(k)) for k in LUGRE_KEYS):
+    if not pinned or not section3_complete(initial):
         return res, None
     ratios = ", ".join(f"{k} {res.values[k] / initial[k]:.3g}x" for k in pinned)
     note = (f"the LuGre fit ran {' and '.join(pinned)} to the edge of its search ({ratios} the "
             "value read off the friction-velocity map): LuGre alone cannot hold what the record "
             "shows, so the diagnosis started from Section III's estimates")
     return replace(res, values=dict(res.values, **{k: float(initial[k]) for k in LUGRE_KEYS})), note
-
-
-def _positive(v) -> bool:
-    return isinstance(v, (int, float)) and math.isfinite(v) and v > 0
