@@ -1,4 +1,5 @@
-"""Records as users have them: CSV with any delimiter, Parquet, MATLAB .mat (v5).
+"""Records as users have them: CSV with any delimiter, Parquet, MATLAB .mat (v5), any of them
+compressed or zipped, text in UTF-8, UTF-16 or Windows-1252 (``bench.containers``).
 
 ``read_record`` takes a file (path or bytes) and an optional column mapping
 (``t=NAME,tau=NAME,q=NAME[,qd=NAME]``; a name may also be a 1-based column number), takes
@@ -20,6 +21,7 @@ import numpy as np
 
 from bench import header_units, own_times
 from bench.coarse_time import spread
+from bench.containers import decode_text, unwrap
 from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
@@ -67,6 +69,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     left out), the part of a long log to analyse."""
     span = parse_window(window)
     raw, name = _load(source, name)
+    raw, name, wrapped = unwrap(raw, name)      # gzip, xz, zstd, a zip of one (bench.containers)
     opts = dict(joint_type=joint_type, position_unit=position_unit, torque_unit=torque_unit,
                 inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
     fmt = _format(raw, name)
@@ -76,12 +79,14 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         table, meta = _parquet(raw, name)
         trace = _trace_record(table, mapping, name)
         if trace is not None:
-            return _finish(trace, name, fmt, opts, span)
+            return _finish(trace, name, fmt, opts, span, wrapped)
     elif fmt == "mat":
         table, meta = _mat(raw, name)
         table.update({k: table[v] for k, v in own_times.signal_names(table).items()})
     else:
-        table, meta, fmt, units_row = _text(raw, name)
+        table, meta, fmt, units_row, encoding = _text(raw, name)
+        if encoding != "utf-8":
+            wrapped["encoding"] = encoding
     text_row = units_row == {}          # a row of descriptions under the header, skipped
     units_row = units_row or {}
     explicit = mapping is not None
@@ -119,13 +124,14 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["text_row_skipped"] = True
     if own:
         rec.reading["own_times"] = own
-    return _finish(rec, name, fmt, opts, span)
+    return _finish(rec, name, fmt, opts, span, wrapped)
 
 
-def _finish(rec: Record, name, fmt, opts: dict, span=None) -> Record:
+def _finish(rec: Record, name, fmt, opts: dict, span=None, wrapped: dict | None = None) -> Record:
     for key, value in opts.items():
         if value is not None:
             rec.meta[key] = value
+    rec.reading.update(wrapped or {})
     rec.reading.setdefault("format", fmt)
     header_units.apply(rec)
     joined = sparse_columns(rec)       # streams on rows of their own (bench.joined_streams)
@@ -188,10 +194,7 @@ def _text(raw: bytes, name: str):
     ``#`` metadata lines and blank lines are taken out first."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError(f"{name}: not UTF-8 text (and not Parquet or MATLAB .mat)") from None
+    text, encoding = decode_text(raw, name)
     if _CONTROL.search(text):   # valid UTF-8 need not be text: a binary dump, a truncated copy
         raise InputError(f"{name}: holds control characters (binary content), not a text record")
     meta, body = {}, text
@@ -237,7 +240,7 @@ def _text(raw: bytes, name: str):
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
-    return table, meta, fmt, units_row
+    return table, meta, fmt, units_row, encoding
 
 
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")   # not tab, newline or carriage return

@@ -4,6 +4,7 @@ standstills cut, a torque read in coarse steps.  Each changes what the numbers m
 report says it first."""
 from __future__ import annotations
 
+from bench.containers import TRUNCATED_WARNING
 from bench.records import Record
 from bench.slow_stream import HELD, JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
 
@@ -28,6 +29,9 @@ GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and ba
                   "logger glitches): their positions were interpolated from the samples around them")
 TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
                     "skipped as a description row")
+# a guess, so said: a header's unit in another code page (a degree sign) could read wrong
+CODE_PAGE_WARNING = ("the file is not UTF-8 text: it was read as Windows-1252 (a Western "
+                     "Windows PC's); check that the header's units read as meant")
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
 
@@ -106,6 +110,10 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):
         out.append(TEXT_ROW_WARNING)
+    if r.get("truncated_lines"):
+        out.append(TRUNCATED_WARNING.format(how=r["container"], n=r["truncated_lines"]))
+    if r.get("encoding") == "windows-1252":
+        out.append(CODE_PAGE_WARNING)
     ignored = list(r.get("header_units", {}).get("ignored", {}).items())
     out += [f"the header states the {role} column's unit: {why}" for role, why in reversed(ignored)]
     return out
