@@ -104,12 +104,16 @@ _UPLOAD_DOC = {"requestBody": {"required": True, "content": {
 _TEXT = ("text/csv", "text/plain", "application/csv", "text/tab-separated-values")
 _BINARIES = {"application/vnd.apache.parquet": ".parquet", "application/x-parquet": ".parquet",
              "application/x-matlab-data": ".mat", "application/x-mat": ".mat",
-             "application/octet-stream": ""}
+             "application/octet-stream": "",
+             # a compressed or zipped record of any format: its magic bytes say which (bench.containers)
+             "application/gzip": "", "application/x-gzip": "", "application/zip": "",
+             "application/x-bzip2": "", "application/x-xz": "", "application/zstd": ""}
 
 
 @router.post("/analyze", response_model=dict[str, Any], tags=["analysis"], openapi_extra=_UPLOAD_DOC,
              responses={**E.AUTH, 413: E._doc("record too large"), 415: E._doc("not a record body")},
-             summary="Identify and diagnose an uploaded record (CSV, Parquet or MATLAB .mat); the report JSON")
+             summary="Identify and diagnose an uploaded record (CSV, Parquet or MATLAB .mat, "
+                     "compressed or zipped as logs are kept); the report JSON")
 async def analyze(request: Request, inertia: Optional[str] = Query(None, max_length=40,
                                                   description="M_jj [SI]; 0: the torque column is the friction; "
                                                               "estimate: read it off the record"),
@@ -178,7 +182,8 @@ async def _upload(request: Request) -> tuple[str, bytes]:
         name, raw = "upload" + _BINARIES[base], bytes(body)
     else:
         raise HTTPException(415, f"send the record as text/csv, application/vnd.apache.parquet, "
-                                 f"application/x-matlab-data, application/octet-stream or multipart/form-data "
+                                 f"application/x-matlab-data, application/gzip, application/zip, "
+                                 f"application/octet-stream or multipart/form-data "
                                  f"(field 'file'), not {ctype[:60]!r}")
     if not raw.strip():
         raise InputError(f"{name}: empty record")

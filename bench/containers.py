@@ -23,6 +23,10 @@ from bench.errors import InputError
 _COMPRESSED = {b"\x1f\x8b": "gzip", b"BZh": "bzip2", b"\xfd7zXZ\x00": "xz", b"\x28\xb5\x2f\xfd": "zstd"}
 _DECOMPRESSORS = {"gzip": lambda: zlib.decompressobj(wbits=47), "bzip2": bz2.BZ2Decompressor,
                   "xz": lzma.LZMADecompressor}
+# bytes unpacked at most: ``bench.validate.MAX_SAMPLES`` (1e7) rows of ~60 characters of text
+# is 0.6 GB; beyond is no record the analysis would take, or a decompression bomb
+MAX_UNPACKED = 1 << 30
+CHUNK = 1 << 20
 _SUFFIXES = (".gz", ".gzip", ".bz2", ".xz", ".zst", ".zstd", ".zip")
 TRUNCATED_WARNING = ("the {how} file ends before its compressed stream does (a logger stopped "
                      "mid-write?): the {n} whole lines before the cut were read")
@@ -65,29 +69,65 @@ def _strip_suffix(name: str) -> str:
 
 def _decompress(raw: bytes, how: str, name: str) -> tuple[bytes, bool]:
     """(the bytes, whether the stream ended as it should)."""
+    out = _Unpacked(name)
     if how == "zstd":
         import pyarrow as pa
         try:
             with pa.CompressedInputStream(pa.BufferReader(raw), "zstd") as stream:
-                return stream.read(), True
+                while out.add(stream.read(CHUNK)):
+                    pass
+            return out.bytes(), True
         except (OSError, pa.ArrowInvalid) as e:
             raise InputError(f"{name}: not a readable zstd stream ({str(e).splitlines()[0][:100]})") from None
     # streaming, so that a stream without its end still gives what it holds
     magic = next(m for m, h in _COMPRESSED.items() if h == how)
-    out, data = [], raw
+    data = raw
     try:
         while True:
             d = _DECOMPRESSORS[how]()
-            out.append(d.decompress(data))
+            for chunk in _inflate(d, data, how):
+                out.add(chunk)
             if not d.eof:
-                return b"".join(out), False
+                return out.bytes(), False
             data = d.unused_data        # gzip and bzip2 allow members one after another
             if not data.startswith(magic):    # (padding after the last is not a member)
-                return b"".join(out), True
+                return out.bytes(), True
     except (zlib.error, OSError, lzma.LZMAError, EOFError) as e:
-        if not any(out):
+        if not out.size:
             raise InputError(f"{name}: not a readable {how} stream ({e})") from None
-        return b"".join(out), False
+        return out.bytes(), False
+
+
+def _inflate(d, data: bytes, how: str):
+    """A decompressor's output in pieces of at most CHUNK bytes (a small file may unpack to
+    gigabytes: each piece is counted before the next is made)."""
+    if how == "gzip":
+        while True:
+            yield d.decompress(data, CHUNK)
+            data = d.unconsumed_tail
+            if d.eof or not data:
+                return
+    yield d.decompress(data, max_length=CHUNK)
+    while not d.eof and not d.needs_input:
+        yield d.decompress(b"", max_length=CHUNK)
+
+
+class _Unpacked:
+    """Pieces of an unpacked stream, refused beyond ``MAX_UNPACKED``."""
+
+    def __init__(self, name: str):
+        self.name, self.pieces, self.size = name, [], 0
+
+    def add(self, piece: bytes) -> bool:
+        self.size += len(piece)
+        if self.size > MAX_UNPACKED:
+            raise InputError(f"{self.name}: unpacks to more than {MAX_UNPACKED >> 20} MiB, more than a "
+                             f"record the analysis takes (1e7 samples); cut the log first")
+        self.pieces.append(piece)
+        return bool(piece)
+
+    def bytes(self) -> bytes:
+        return b"".join(self.pieces)
 
 
 def _zip_member(raw: bytes, name: str) -> tuple[bytes, str]:
@@ -99,7 +139,11 @@ def _zip_member(raw: bytes, name: str) -> tuple[bytes, str]:
                 listed = ", ".join(i.filename for i in members[:5]) + (", ..." if len(members) > 5 else "")
                 raise InputError(f"{name}: a zip archive holding {len(members)} files ({listed or 'none'}); "
                                  f"unpack the record to analyse, or zip it alone")
-            return z.read(members[0]), members[0].filename
+            out = _Unpacked(name)
+            with z.open(members[0]) as f:
+                while out.add(f.read(CHUNK)):
+                    pass
+            return out.bytes(), members[0].filename
     except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as e:
         raise InputError(f"{name}: not a readable zip archive ({e})") from None
     except RuntimeError as e:     # an encrypted member

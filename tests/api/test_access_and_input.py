@@ -229,6 +229,11 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
     r = operator.post("/analyze", content=buf.getvalue(), params=params,
                       headers={"content-type": "application/octet-stream"}, timeout=180)
     assert r.status_code == 200 and r.json()["parameters"] == doc["parameters"], r.text
+    import gzip             # the same .mat as a logger keeps it, gzipped (bench.containers)
+    r = operator.post("/analyze", content=gzip.compress(buf.getvalue()), params=params,
+                      headers={"content-type": "application/gzip"}, timeout=180)
+    assert r.status_code == 200 and r.json()["parameters"] == doc["parameters"], r.text
+    assert r.json()["input"]["container"] == "gzip" and r.json()["input"]["format"] == "mat", r.json()["input"]
     buf = io.BytesIO()      # a logger counting milliseconds: the same record
     pq.write_table(pa.table(dict(cols, time=np.round(rec.t * 1e3, 6))), buf)
     r = operator.post("/analyze", content=buf.getvalue(), params=dict(params, time_unit="ms"),

@@ -123,3 +123,18 @@ def test_the_command_line_reads_a_gzipped_log(tmp_path, rec):
     doc = json.loads(out.read_text())
     assert doc["input"]["container"] == "gzip" and doc["input"]["format"] == "csv"
     assert abs(doc["parameters"]["Fc"] / PRESETS["j3"].friction.Fc - 1) < 0.1
+
+
+@pytest.mark.parametrize("how", ["gzip", "bzip2", "xz", "zstd", "zip"])
+def test_a_file_that_unpacks_beyond_the_limit_is_refused_while_unpacking(monkeypatch, how):
+    """A few kB that unpack to gigabytes (a decompression bomb, or a day's log) are stopped
+    at ``MAX_UNPACKED`` (here lowered to 4 MiB), not held whole in memory first."""
+    import bench.containers as containers
+    monkeypatch.setattr(containers, "MAX_UNPACKED", 4 << 20)
+    zeros = b"0" * (8 << 20)
+    raw = {"gzip": gzip.compress, "bzip2": bz2.compress, "xz": lzma.compress, "zstd": _zstd,
+           "zip": lambda b: _zip({"big.csv": b})}[how](zeros)
+    assert len(raw) < 100_000
+    with pytest.raises(InputError) as err:
+        read_record(raw, name="big")
+    assert "unpacks to more than 4 MiB" in str(err.value), str(err.value)
