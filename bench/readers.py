@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import header_units, own_times
+from bench import header_units, own_times, split_stamps
 from bench.coarse_time import spread
 from bench.containers import decode_text, unwrap
 from bench.counters import unwrap_counter
@@ -92,6 +92,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     explicit = mapping is not None
     names = _names(table)
     mapping = mapping or header_units.default_mapping(names, ROLES, REQUIRED)
+    if not explicit and mapping.get("t") not in names and split_stamps.stamp_column(names):
+        mapping["t"] = split_stamps.stamp_column(names)     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
     own = {}
     if fmt == "mat" or given:   # signals with times of their own (bench.own_times)
@@ -105,9 +107,13 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         unit = units_row.get(key) or header_units.unit_in_name(str(key))
         if unit and role in header_units.KEYS:
             stated[role] = unit
-        values = table.column(key) if hasattr(table, "column_names") else table[key]
+        values = _column(table, key)
         data[role] = _numeric(values, key, name, time=role == "t")
-        if role == "t" and isinstance(data[role], _ClockSeconds):
+        fraction = split_stamps.fraction_of(key, names) if role == "t" and fmt != "mat" else None
+        stamped = fraction and split_stamps.joined(data[role], _numeric(_column(table, fraction), fraction, name))
+        if stamped is not None:     # seconds and their nanoseconds in two columns (bench.split_stamps)
+            clock, data[role], mapping = True, stamped, dict(mapping, t=f"{key} + {fraction}")
+        elif role == "t" and isinstance(data[role], _ClockSeconds):
             clock, data[role] = True, np.asarray(data[role])
         elif role == "t":   # integer ticks (ns since the epoch) lose digits as floats: keep them
             ints = values.to_numpy() if hasattr(values, "to_numpy") else np.asarray(values)
@@ -366,6 +372,10 @@ def _column_key(table, col: str, role: str, name: str, explicit: bool):
         raise InputError(f"{name}: no column {col!r} (for {role}); the file's columns: {shown}")
     raise InputError(f"{name}: missing column '{role}' (header is: {shown}); map yours with "
                      f"--columns t=NAME,tau=NAME,q=NAME")
+
+
+def _column(table, key):
+    return table.column(key) if hasattr(table, "column_names") else table[key]
 
 
 def _numeric(values, col: str, name: str, time: bool = False) -> np.ndarray:
