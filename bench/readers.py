@@ -13,6 +13,7 @@ report.  Every problem is an ``InputError`` of one line.
 """
 from __future__ import annotations
 
+import csv
 import io
 import re
 from pathlib import Path
@@ -215,7 +216,7 @@ def _text(raw: bytes, name: str):
     if delim is None:   # whitespace-separated: one tab between fields
         body = _SPACES.sub("\t", _LEADING.sub("", body))
     sep = delim or "\t"
-    header = [h.strip().strip('"') for h in first.split(sep)] if delim else first.split()
+    header = _fields(first, sep) if delim else first.split()
     headerless = all(_is_number(h) for h in header)   # no header: columns are numbered
     if headerless:
         header = [str(i + 1) for i in range(len(header))]
@@ -223,7 +224,7 @@ def _text(raw: bytes, name: str):
         raise InputError(f"{name}: duplicate column names in header")
     second = first if headerless else _line(body, 1)
     units_row = None if headerless else header_units.split_units_row(
-        header, [f for f in second.split(sep)] if delim else second.split())
+        header, _fields(second, sep) if delim else second.split())
     if units_row is not None:  # a data-acquisition export's units (or descriptions) under the names
         at = body.find("\n") + 1
         nxt = body.find("\n", at)
@@ -264,6 +265,12 @@ def _line(text: str, k: int) -> str:
             return ""
     end = text.find("\n", at)
     return text[at:end if end >= 0 else None]
+
+
+def _fields(line: str, sep: str) -> list[str]:
+    """A header's (or units row's) fields, a quoted one holding the delimiter kept whole
+    ("time, s" split in two gave a header longer than its rows)."""
+    return [f.strip().strip('"') for f in next(csv.reader([line], delimiter=sep, skipinitialspace=True), [""])]
 
 
 def _delimiter(header: str):

@@ -570,3 +570,14 @@ def test_mat_without_the_variable_and_decreasing_time_on_the_command_line(tmp_pa
     r = run("analyze", p)
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert r.returncode == 2 and len(lines) == 1 and "time is not increasing" in lines[0], r.stderr
+
+
+def test_a_quoted_header_name_holding_the_delimiter_stays_one_column():
+    """Excel quotes a name holding the delimiter ("time, s"); split on every comma the header
+    had five fields over rows of three and the file was refused."""
+    rec = simulate_record(PRESETS["j3"], *PRESETS["j3"].excitation, duration=10.0, seed=10230).record
+    body = '# inertia: 30\n"time, s","torque, N*m",q\n' + "\n".join(
+        f"{t:.6f},{x:.9g},{q:.10g}" for t, x, q in zip(rec.t, rec.tau, rec.q))
+    got = read_record(body.encode(), name="excel.csv", columns="t=1,tau=2,q=3")
+    np.testing.assert_allclose(got.q, rec.q, atol=1e-9)
+    np.testing.assert_allclose(got.tau, rec.tau, rtol=1e-8)
