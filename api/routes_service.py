@@ -121,6 +121,7 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   time_unit: Optional[str] = Query(None, pattern="^(s|ms|us|ns)$", description="numeric time's unit (default s)"),
                   window: Optional[str] = Query(None, max_length=60, description="START:END seconds from the first sample"),
+                  sample_rate: Optional[float] = Query(None, gt=0, le=1e7, description="the rows' rate [Hz], for a file without a time column"),
                   position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),
                   torque_unit: Optional[str] = Query(None, max_length=20, description="N*m, mN*m, kN*m, N*mm; N, mN, kN"),
                   torque_hold: Optional[str] = Query(None, pattern="^(zoh|sample|auto)$"),
@@ -135,7 +136,7 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
     parse_window(window)
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,
                "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold,
-               "time_unit": time_unit, "window": window}
+               "time_unit": time_unit, "window": window, "sample_rate": sample_rate}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
     if svc.analysis_pool is None:
         from api.analysis_worker import AnalysisWorker

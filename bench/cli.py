@@ -169,11 +169,12 @@ def _inertia_option(text: str | None) -> float | str | None:
 
 @app.command()
 def analyze(
-    file: Path = typer.Argument(..., help="record: CSV (any delimiter; # metadata lines), Parquet or MATLAB .mat"),
+    file: Path = typer.Argument(..., help="record: CSV (any delimiter; # metadata lines), Parquet or MATLAB .mat, any of them compressed (gzip, bzip2, xz, zstd) or zipped"),
     columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]; NAME@TIME: a column with a time column of its own"),
     inertia: Optional[str] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction; estimate: read it off the record"),
     joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
     time_unit: Optional[str] = typer.Option(None, help="s, ms, us or ns (numeric time; default s), or K*UNIT (25*ns: 40 MHz ticks)"),
+    sample_rate: Optional[float] = typer.Option(None, help="the rows' rate [Hz], for a file without a time column (a scope's export; or a '# sample_rate: HZ' line)"),
     window: Optional[str] = typer.Option(None, help="START:END seconds from the first sample: the part of a long log to analyse"),
     position_unit: Optional[str] = typer.Option(None, help="rad, deg, rev (revolute); m, mm, um (prismatic); or K*UNIT (counts: 0.00153398*rad)"),
     torque_unit: Optional[str] = typer.Option(None, help="N*m, mN*m, kN*m, N*mm (revolute); N, mN, kN (prismatic); or K*UNIT (amperes: 0.12*N*m)"),
@@ -193,7 +194,7 @@ def analyze(
         inertia = _inertia_option(inertia)
         rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
                           torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold,
-                          time_unit=time_unit, window=window)
+                          time_unit=time_unit, window=window, sample_rate=sample_rate)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
         result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))

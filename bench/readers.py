@@ -30,6 +30,7 @@ from bench.joined_streams import VALUES, onto_kept_rows, sparse_columns
 from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
+from bench.sample_rate import sample_rate_of
 from bench.slow_stream import filled_forward
 from bench.turns import unwrap_turns
 from bench.units import to_si
@@ -54,9 +55,11 @@ def parse_columns(spec: str | None) -> dict | None:
         if role in out:
             raise InputError(f"--columns: {role} is mapped twice")
         out[role] = col
-    missing = [r for r in REQUIRED if r not in out]
+    # t may be left out: a scope's export without times, read at its sample rate
+    missing = [r for r in REQUIRED if r not in out and r != "t"]
     if missing:
-        raise InputError(f"--columns must map t, tau and q (missing: {', '.join(missing)})")
+        raise InputError(f"--columns must map t, tau and q (missing: {', '.join(missing)}; t may be "
+                         f"left out for a file without times given its --sample-rate)")
     return out
 
 
@@ -64,10 +67,11 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 joint_type: str | None = None, position_unit: str | None = None,
                 torque_unit: str | None = None, inertia: float | None = None,
                 torque_hold: str | None = None, time_unit: str | None = None,
-                window: str | None = None) -> Record:
+                window: str | None = None, sample_rate: float | None = None) -> Record:
     """Read, map, convert, resample and validate a record.  ``source``: a path, bytes or a
     text stream.  ``window``: "START:END", seconds from the first sample (either may be
-    left out), the part of a long log to analyse."""
+    left out), the part of a long log to analyse.  ``sample_rate`` [Hz]: the rows' rate, for
+    a file without a time column (``bench.sample_rate``)."""
     span = parse_window(window)
     raw, name = _load(source, name)
     raw, name, wrapped = unwrap(raw, name)      # gzip, xz, zstd, a zip of one (bench.containers)
@@ -96,6 +100,12 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     if not explicit and mapping.get("t") not in names and split_stamps.stamp_column(names):
         mapping["t"] = split_stamps.stamp_column(names)     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
+    rate = sample_rate_of(sample_rate, meta, mapping, names, name, plain=fmt != "mat" and not given)
+    if rate is not None:
+        mapping.pop("t", None)
+    elif "t" not in mapping:
+        raise InputError(f"{name}: no time column mapped; map one (--columns t=NAME) or give the rows' "
+                         f"sample rate (--sample-rate HZ, or a '# sample_rate: HZ' line)")
     own = {}
     if fmt == "mat" or given:   # signals with times of their own (bench.own_times)
         table, mapping, own = own_times.join(table, names, mapping, name, explicit, given)
@@ -119,8 +129,13 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         elif role == "t":   # integer ticks (ns since the epoch) lose digits as floats: keep them
             ints = values.to_numpy() if hasattr(values, "to_numpy") else np.asarray(values)
             ticks = ints.astype(np.int64) if ints.dtype.kind in "iu" else None
+    if rate is not None:       # seconds, whatever a time unit says
+        clock, data["t"] = True, np.arange(len(data["tau"])) / rate
     rec = Record(t=data["t"], tau=data["tau"], q=data["q"], qd=data.get("qd"), meta=meta)
     rec.reading = {"format": fmt, "columns": {r: str(c) for r, c in mapping.items()}}
+    if rate is not None:
+        rec.reading["columns"]["t"] = f"row number / {rate:g} Hz"
+        rec.reading["sample_rate"] = rate
     if ticks is not None:
         rec.reading["raw_ticks"] = ticks
     if clock:
@@ -377,8 +392,9 @@ def _column_key(table, col: str, role: str, name: str, explicit: bool):
     shown = ", ".join(names[:40]) + (" ..." if len(names) > 40 else "")
     if explicit:
         raise InputError(f"{name}: no column {col!r} (for {role}); the file's columns: {shown}")
+    rate = " (a file without times: --sample-rate HZ)" if role == "t" else ""
     raise InputError(f"{name}: missing column '{role}' (header is: {shown}); map yours with "
-                     f"--columns t=NAME,tau=NAME,q=NAME")
+                     f"--columns t=NAME,tau=NAME,q=NAME{rate}")
 
 
 def _column(table, key):

@@ -132,6 +132,19 @@ def test_analyze_csv_body_and_multipart(operator):
     r = operator.post("/analyze", files={"file": ("rec.csv", text, "text/csv")}, params={"diagnose": "false"},
                       timeout=180)
     assert r.status_code == 200, r.text
+    doc = r.json()
+    # the same rows without their times (a scope's export), at the rate the query gives
+    lines = text.splitlines()
+    head = [ln for ln in lines if ln.startswith("#")]
+    rows = [ln.split(",", 1)[1] for ln in lines if not ln.startswith("#")]
+    untimed = "\n".join(head + rows)
+    r = operator.post("/analyze", content=untimed, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false", "sample_rate": 1000}, timeout=180)
+    assert r.status_code == 200 and r.json()["input"]["columns"]["t"] == "row number / 1000 Hz", r.text
+    assert r.json()["parameters"] == pytest.approx(doc["parameters"], rel=1e-6)
+    r = operator.post("/analyze", content=untimed, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=60)
+    assert r.status_code == 422 and "--sample-rate HZ" in r.json()["detail"], r.text
 
 
 def test_analyze_an_upload_whose_inertia_is_to_be_estimated(operator):

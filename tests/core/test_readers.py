@@ -541,7 +541,7 @@ def test_milliseconds_from_a_metadata_line_are_seconds_inside():
 @pytest.mark.parametrize("content, options, expect", [
     ("t,tau,q\n0,1,1\n", {"time_unit": "min"}, "time_unit 'min' is not one of s, ms, us, ns"),
     ("a,b,c\n0,1,2\n", {"columns": "t=a,tau=b,q=zz"}, "no column 'zz' (for q); the file's columns: a, b, c"),
-    ("a,b,c\n0,1,2\n", {"columns": "t=a,tau=b"}, "--columns must map t, tau and q (missing: q)"),
+    ("a,b,c\n0,1,2\n", {"columns": "t=a,tau=b"}, "--columns must map t, tau and q (missing: q;"),
     ("t,tau,q\n" + "".join(f"{(i if i != 30 else 12) / 1000},{i},{i}\n" for i in range(60)), {"inertia": 1},
      "time is not increasing"),
     ("t,tau,q\n" + "".join(f"{i / 1000 + 0.05 * (i // 3)},{np.sin(i)},{i}\n" for i in range(60)), {"inertia": 1},
