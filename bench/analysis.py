@@ -163,8 +163,10 @@ class Analysis:
                           **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {}),
                           **({"time_counter": r["time_counter"]} if "time_counter" in r else {}),
                           **({"own_times": r["own_times"]} if "own_times" in r else {}),
-                          # what the bytes came wrapped in (bench.containers)
-                          **{k: r[k] for k in ("container", "member", "encoding", "truncated_lines") if k in r}},
+                          # what the bytes came wrapped in (bench.containers), a position integrated
+                          # (bench.position_from_velocity), times from a rate (bench.sample_rate)
+                          **{k: r[k] for k in ("container", "member", "encoding", "truncated_lines", "position_from",
+                                               "sample_rate") if k in r}},
                 "units": {"si": True, "conversions": r.get("units", {}),
                           **({"from_header": r["header_units"]["taken"]} if r.get("header_units") else {})},
                 "resampling": resampling}

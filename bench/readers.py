@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import header_units, own_times, split_stamps
+from bench import header_units, own_times, position_from_velocity, split_stamps
 from bench.coarse_time import spread
 from bench.containers import decode_text, unwrap
 from bench.counters import unwrap_counter
@@ -56,10 +56,11 @@ def parse_columns(spec: str | None) -> dict | None:
             raise InputError(f"--columns: {role} is mapped twice")
         out[role] = col
     # t may be left out: a scope's export without times, read at its sample rate
-    missing = [r for r in REQUIRED if r not in out and r != "t"]
+    missing = [r for r in REQUIRED if r not in out and r != "t" and not (r == "q" and "qd" in out)]
     if missing:
         raise InputError(f"--columns must map t, tau and q (missing: {', '.join(missing)}; t may be "
-                         f"left out for a file without times given its --sample-rate)")
+                         f"left out for a file without times given its --sample-rate, q for one "
+                         f"with a velocity qd)")
     return out
 
 
@@ -106,6 +107,9 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     elif "t" not in mapping:
         raise InputError(f"{name}: no time column mapped; map one (--columns t=NAME) or give the rows' "
                          f"sample rate (--sample-rate HZ, or a '# sample_rate: HZ' line)")
+    from_qd = fmt != "mat" and not given and position_from_velocity.velocity_only(mapping, names)
+    if from_qd:                  # a speed and no position (bench.position_from_velocity)
+        mapping.pop("q", None)
     own = {}
     if fmt == "mat" or given:   # signals with times of their own (bench.own_times)
         table, mapping, own = own_times.join(table, names, mapping, name, explicit, given)
@@ -131,8 +135,13 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
             ticks = ints.astype(np.int64) if ints.dtype.kind in "iu" else None
     if rate is not None:       # seconds, whatever a time unit says
         clock, data["t"] = True, np.arange(len(data["tau"])) / rate
+    if from_qd:                # integrated once the rows with lost cells are out (_finish)
+        data["q"] = np.array(data["qd"], dtype=float)
     rec = Record(t=data["t"], tau=data["tau"], q=data["q"], qd=data.get("qd"), meta=meta)
     rec.reading = {"format": fmt, "columns": {r: str(c) for r, c in mapping.items()}}
+    if from_qd:
+        rec.reading["columns"]["q"] = f"integral of {mapping['qd']}"
+        rec.reading["position_from"] = "qd"
     if rate is not None:
         rec.reading["columns"]["t"] = f"row number / {rate:g} Hz"
         rec.reading["sample_rate"] = rate
@@ -164,6 +173,8 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None, wrapped: dict | None 
     if counter:
         rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}
     to_si(rec, name)
+    if rec.reading.get("position_from") == "qd":
+        position_from_velocity.integrate(rec)
     wraps = unwrap_turns(rec)          # in file order, before anything differentiates q
     if wraps:
         rec.reading["turns_unwrapped"] = wraps

@@ -5,6 +5,7 @@ report says it first."""
 from __future__ import annotations
 
 from bench.containers import TRUNCATED_WARNING
+from bench.position_from_velocity import WARNING as POSITION_FROM_VELOCITY
 from bench.records import Record
 from bench.slow_stream import HELD, JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
 
@@ -110,6 +111,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("text_row_skipped"):
         out.append(TEXT_ROW_WARNING)
+    if r.get("position_from") == "qd":
+        out.append(POSITION_FROM_VELOCITY)
     if r.get("truncated_lines"):
         out.append(TRUNCATED_WARNING.format(how=r["container"], n=r["truncated_lines"]))
     if r.get("encoding") == "windows-1252":

@@ -318,7 +318,7 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     if hold == "auto":
         hold = "zoh"
     pieces = [_segment_signals(t[a:b], q[a:b], None if not use_qd else rec.qd[a:b], rec.tau[a:b], dt,
-                               sos_v, hold == "zoh" and not use_qd)
+                               sos_v, hold == "zoh")
               for a, b in bounds]
     cat = (lambda k: pieces[0][k]) if len(pieces) == 1 else (lambda k: np.concatenate([p[k] for p in pieces]))
     c = Conditioned(dt=dt, t_full=t, q_full=q, v_mid=cat("v_mid"), q_mid=cat("q_mid"),
