@@ -401,8 +401,9 @@ def identify(rec: Record, inertia: float | None = None, cutoff: float | None = N
     res = _fit_lugre(data, est, M, other_basins=True)
     if hold == "auto":
         hold = "zoh"
-        # with a logged qd driving the model the torque is taken as sampled already
-        if data.c.velocity_source != "qd" and _prefers_sampled_torque(rec, data, res):
+        # a logged qd driving the model is no reason to skip this: its derivative sees a held
+        # torque as the position's second difference does (bench.signals.condition)
+        if _prefers_sampled_torque(rec, data, res):
             hold = "sample"
             data, M = prepare(rec, inertia, cutoff, name, hold)
             est = section3_estimates(data, M, name, revolute)
