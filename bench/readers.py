@@ -13,25 +13,24 @@ report.  Every problem is an ``InputError`` of one line.
 """
 from __future__ import annotations
 
-import csv
 import io
-import re
 from pathlib import Path
 
 import numpy as np
 
 from bench import header_units, own_times, position_from_velocity, split_stamps
 from bench.coarse_time import spread
-from bench.containers import decode_text, unwrap
+from bench.containers import unwrap
 from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
 from bench.joined_streams import VALUES, onto_kept_rows, sparse_columns
-from bench.records import REQUIRED, Record, _parse_meta_value, split_metadata, validate
+from bench.records import REQUIRED, Record, _parse_meta_value, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.sample_rate import sample_rate_of
 from bench.slow_stream import filled_forward
+from bench.text_table import read_text
 from bench.turns import unwrap_turns
 from bench.units import to_si
 from bench.validate import record_magnitudes
@@ -90,7 +89,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         table, meta = _mat(raw, name)
         table.update({k: table[v] for k, v in own_times.signal_names(table).items()})
     else:
-        table, meta, fmt, units_row, encoding = _text(raw, name)
+        table, meta, fmt, units_row, encoding = read_text(raw, name)
         if encoding != "utf-8":
             wrapped["encoding"] = encoding
     text_row = units_row == {}          # a row of descriptions under the header, skipped
@@ -220,90 +219,6 @@ def _format(raw: bytes, name: str) -> str:
     if name.lower().endswith(".mat"):
         return "mat"   # v4 files have no magic; scipy says what it can read
     return "csv"
-
-
-def _text(raw: bytes, name: str):
-    """Delimited text, parsed by Arrow's CSV reader (a 10-minute log in well under a second);
-    ``#`` metadata lines and blank lines are taken out first."""
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    text, encoding = decode_text(raw, name)
-    if _CONTROL.search(text):   # valid UTF-8 need not be text: a binary dump, a truncated copy
-        raise InputError(f"{name}: holds control characters (binary content), not a text record")
-    meta, body = {}, text
-    if "#" in text:
-        meta = split_metadata("\n".join(_META.findall(text)))[0]
-        body = _META.sub("", text)
-    body = body.lstrip()     # Arrow skips empty lines, not leading blank ones before the header
-    first = _line(body, 0).strip()
-    if not first:
-        raise InputError(f"{name}: no header row and no data")
-    delim = _delimiter(first)
-    if delim is None:   # whitespace-separated: one tab between fields
-        body = _SPACES.sub("\t", _LEADING.sub("", body))
-    sep = delim or "\t"
-    header = _fields(first, sep) if delim else first.split()
-    headerless = all(_is_number(h) for h in header)   # no header: columns are numbered
-    if headerless:
-        header = [str(i + 1) for i in range(len(header))]
-    elif len(set(header)) != len(header):
-        raise InputError(f"{name}: duplicate column names in header")
-    second = first if headerless else _line(body, 1)
-    units_row = None if headerless else header_units.split_units_row(
-        header, _fields(second, sep) if delim else second.split())
-    if units_row is not None:  # a data-acquisition export's units (or descriptions) under the names
-        at = body.find("\n") + 1
-        nxt = body.find("\n", at)
-        body = body[:at] + (body[nxt + 1:] if nxt >= 0 else "")
-        second = _line(body, 1)
-    decimal = "," if sep != "," and "," in second else "."
-    try:
-        table = pacsv.read_csv(
-            io.BytesIO(body.encode()),
-            # one thread: Arrow's CSV thread pool can still be running when a one-line error
-            # exits the process, and its shutdown then aborts ("terminate called ...", exit -6)
-            read_options=pacsv.ReadOptions(column_names=header, skip_rows=0 if headerless else 1,
-                                           use_threads=False),
-            parse_options=pacsv.ParseOptions(delimiter=sep),
-            convert_options=pacsv.ConvertOptions(decimal_point=decimal, strings_can_be_null=False))
-    except pa.ArrowInvalid as e:
-        msg = str(e).splitlines()[0]
-        if "skip initial" in msg:   # Arrow's words for a header with nothing under it
-            raise InputError(f"{name}: a header row and no data rows") from None
-        msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
-        raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
-    fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
-    return table, meta, fmt, units_row, encoding
-
-
-_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")   # not tab, newline or carriage return
-_META = re.compile(r"^[ \t]*(#.*)$\n?", re.M)
-_LEADING = re.compile(r"^[ \t]+|[ \t]+(?=\r?$)", re.M)    # leading and trailing blanks
-_SPACES = re.compile(r"[ \t]+")
-
-
-def _line(text: str, k: int) -> str:
-    """Line k of a long text without splitting all of it."""
-    at = 0
-    for _ in range(k):
-        at = text.find("\n", at) + 1
-        if at == 0:
-            return ""
-    end = text.find("\n", at)
-    return text[at:end if end >= 0 else None]
-
-
-def _fields(line: str, sep: str) -> list[str]:
-    """A header's (or units row's) fields, a quoted one holding the delimiter kept whole
-    ("time, s" split in two gave a header longer than its rows)."""
-    return [f.strip().strip('"') for f in next(csv.reader([line], delimiter=sep, skipinitialspace=True), [""])]
-
-
-def _delimiter(header: str):
-    for d in ("\t", ";", ","):
-        if d in header:
-            return d
-    return None
 
 
 def _parquet(raw: bytes, name: str):
@@ -449,11 +364,3 @@ class _ClockSeconds(np.ndarray):
 
     def __new__(cls, a):
         return np.asarray(a, dtype=float).view(cls)
-
-
-def _is_number(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False

@@ -1,0 +1,106 @@
+"""Delimited text as loggers write it: any delimiter (tab, semicolon with decimal commas,
+comma, whitespace), ``#`` metadata lines, a header or none (columns numbered), a units or
+description row under the header, parsed by Arrow's CSV reader (``bench.readers`` maps and
+converts what this returns)."""
+from __future__ import annotations
+
+import csv
+import io
+import re
+
+from bench import header_units
+from bench.containers import decode_text
+from bench.errors import InputError
+from bench.records import split_metadata
+
+
+def read_text(raw: bytes, name: str):
+    """Delimited text, parsed by Arrow's CSV reader (a 10-minute log in well under a second);
+    ``#`` metadata lines and blank lines are taken out first."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    text, encoding = decode_text(raw, name)
+    if _CONTROL.search(text):   # valid UTF-8 need not be text: a binary dump, a truncated copy
+        raise InputError(f"{name}: holds control characters (binary content), not a text record")
+    meta, body = {}, text
+    if "#" in text:
+        meta = split_metadata("\n".join(_META.findall(text)))[0]
+        body = _META.sub("", text)
+    body = body.lstrip()     # Arrow skips empty lines, not leading blank ones before the header
+    first = _line(body, 0).strip()
+    if not first:
+        raise InputError(f"{name}: no header row and no data")
+    delim = _delimiter(first)
+    if delim is None:   # whitespace-separated: one tab between fields
+        body = _SPACES.sub("\t", _LEADING.sub("", body))
+    sep = delim or "\t"
+    header = _fields(first, sep) if delim else first.split()
+    headerless = all(_is_number(h) for h in header)   # no header: columns are numbered
+    if headerless:
+        header = [str(i + 1) for i in range(len(header))]
+    elif len(set(header)) != len(header):
+        raise InputError(f"{name}: duplicate column names in header")
+    second = first if headerless else _line(body, 1)
+    units_row = None if headerless else header_units.split_units_row(
+        header, _fields(second, sep) if delim else second.split())
+    if units_row is not None:  # a data-acquisition export's units (or descriptions) under the names
+        at = body.find("\n") + 1
+        nxt = body.find("\n", at)
+        body = body[:at] + (body[nxt + 1:] if nxt >= 0 else "")
+        second = _line(body, 1)
+    decimal = "," if sep != "," and "," in second else "."
+    try:
+        table = pacsv.read_csv(
+            io.BytesIO(body.encode()),
+            # one thread: Arrow's CSV thread pool can still be running when a one-line error
+            # exits the process, and its shutdown then aborts ("terminate called ...", exit -6)
+            read_options=pacsv.ReadOptions(column_names=header, skip_rows=0 if headerless else 1,
+                                           use_threads=False),
+            parse_options=pacsv.ParseOptions(delimiter=sep),
+            convert_options=pacsv.ConvertOptions(decimal_point=decimal, strings_can_be_null=False))
+    except pa.ArrowInvalid as e:
+        msg = str(e).splitlines()[0]
+        if "skip initial" in msg:   # Arrow's words for a header with nothing under it
+            raise InputError(f"{name}: a header row and no data rows") from None
+        msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
+        raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
+    fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
+    return table, meta, fmt, units_row, encoding
+
+
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")   # not tab, newline or carriage return
+_META = re.compile(r"^[ \t]*(#.*)$\n?", re.M)
+_LEADING = re.compile(r"^[ \t]+|[ \t]+(?=\r?$)", re.M)    # leading and trailing blanks
+_SPACES = re.compile(r"[ \t]+")
+
+
+def _line(text: str, k: int) -> str:
+    """Line k of a long text without splitting all of it."""
+    at = 0
+    for _ in range(k):
+        at = text.find("\n", at) + 1
+        if at == 0:
+            return ""
+    end = text.find("\n", at)
+    return text[at:end if end >= 0 else None]
+
+
+def _fields(line: str, sep: str) -> list[str]:
+    """A header's (or units row's) fields, a quoted one holding the delimiter kept whole
+    ("time, s" split in two gave a header longer than its rows)."""
+    return [f.strip().strip('"') for f in next(csv.reader([line], delimiter=sep, skipinitialspace=True), [""])]
+
+
+def _delimiter(header: str):
+    for d in ("\t", ";", ","):
+        if d in header:
+            return d
+    return None
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
