@@ -33,8 +33,8 @@ TRUNCATED_WARNING = ("the {how} file ends before its compressed stream does (a l
 
 
 def unwrap(raw: bytes, name: str) -> tuple[bytes, str, dict]:
-    """(the record's own bytes, the name to read them by, what was taken off: {"container":
-    "gzip", "member": ..., "truncated_lines": n})."""
+    """(the record's own bytes, its name -- a zip's member after the archive's --, what was
+    taken off: {"container": "gzip", "member": ..., "truncated_lines": n})."""
     told: dict = {}
     for _ in range(3):    # a .tar.gz is not a record; a .csv.gz inside a .zip is
         how = _kind(raw)
@@ -52,7 +52,6 @@ def unwrap(raw: bytes, name: str) -> tuple[bytes, str, dict]:
                 if not raw.strip():
                     raise InputError(f"{name}: the {how} file ends before any whole line of the record")
                 told["truncated_lines"] = raw.count(b"\n")
-            name = _strip_suffix(name)
     raise InputError(f"{name}: compressed more than three times over; unpack it first")
 
 
@@ -62,9 +61,11 @@ def _kind(raw: bytes) -> str | None:
     return next((how for magic, how in _COMPRESSED.items() if raw.startswith(magic)), None)
 
 
-def _strip_suffix(name: str) -> str:
-    low = name.lower()
-    return next((name[:-len(s)] for s in _SUFFIXES if low.endswith(s)), name)
+def strip_suffix(name: str) -> str:
+    """``log.mat.gz`` -> ``log.mat``: the name a format is told by (messages keep the file's)."""
+    while name.lower().endswith(_SUFFIXES):
+        name = name[:name.rindex(".")]
+    return name
 
 
 def _decompress(raw: bytes, how: str, name: str) -> tuple[bytes, bool]:

@@ -20,7 +20,7 @@ import numpy as np
 
 from bench import header_units, own_times, position_from_velocity, split_stamps
 from bench.coarse_time import spread
-from bench.containers import unwrap
+from bench.containers import strip_suffix, unwrap
 from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
@@ -214,9 +214,10 @@ def _format(raw: bytes, name: str) -> str:
         return "parquet"
     if raw[:10] == b"MATLAB 5.0" or raw[:19] == b"MATLAB 7.3 MAT-file":
         return "mat"
-    if name.lower().endswith((".parquet", ".pq")):
+    base = strip_suffix(name).lower()     # a compressed file's name tells its content's format
+    if base.endswith((".parquet", ".pq")):
         raise InputError(f"{name}: not a Parquet file (no PAR1 magic)")
-    if name.lower().endswith(".mat"):
+    if base.endswith(".mat"):
         return "mat"   # v4 files have no magic; scipy says what it can read
     return "csv"
 

@@ -138,3 +138,15 @@ def test_a_file_that_unpacks_beyond_the_limit_is_refused_while_unpacking(monkeyp
     with pytest.raises(InputError) as err:
         read_record(raw, name="big")
     assert "unpacks to more than 4 MiB" in str(err.value), str(err.value)
+
+
+def test_a_message_about_a_compressed_file_names_the_file_itself(tmp_path):
+    """The user's file is log.csv.gz, not log.csv; a MATLAB v4 file (no magic bytes) is still
+    told by the name under the compression."""
+    p = tmp_path / "log.csv.gz"
+    p.write_bytes(gzip.compress(b"t,tau\n0,1\n0.001,2\n"))
+    with pytest.raises(InputError) as err:
+        read_record(p)
+    assert str(err.value).startswith(f"{p}: missing column 'q'"), str(err.value)
+    from bench.readers import _format
+    assert _format(b"\x00\x00\x00\x00", "old.mat.gz") == "mat" and _format(b"t,q\n", "x.csv.gz") == "csv"
