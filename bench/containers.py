@@ -75,9 +75,7 @@ def _decompress(raw: bytes, how: str, name: str) -> tuple[bytes, bool]:
         import pyarrow as pa
         try:
             with pa.CompressedInputStream(pa.BufferReader(raw), "zstd") as stream:
-                while out.add(stream.read(CHUNK)):
-                    pass
-            return out.bytes(), True
+                return out.drain(stream), True
         except (OSError, pa.ArrowInvalid) as e:
             raise InputError(f"{name}: not a readable zstd stream ({str(e).splitlines()[0][:100]})") from None
     # streaming, so that a stream without its end still gives what it holds
@@ -127,6 +125,12 @@ class _Unpacked:
         self.pieces.append(piece)
         return bool(piece)
 
+    def drain(self, stream) -> bytes:
+        """All of a file-like ``stream``, read in pieces."""
+        while self.add(stream.read(CHUNK)):
+            pass
+        return self.bytes()
+
     def bytes(self) -> bytes:
         return b"".join(self.pieces)
 
@@ -140,11 +144,8 @@ def _zip_member(raw: bytes, name: str) -> tuple[bytes, str]:
                 listed = ", ".join(i.filename for i in members[:5]) + (", ..." if len(members) > 5 else "")
                 raise InputError(f"{name}: a zip archive holding {len(members)} files ({listed or 'none'}); "
                                  f"unpack the record to analyse, or zip it alone")
-            out = _Unpacked(name)
             with z.open(members[0]) as f:
-                while out.add(f.read(CHUNK)):
-                    pass
-            return out.bytes(), members[0].filename
+                return _Unpacked(name).drain(f), members[0].filename
     except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as e:
         raise InputError(f"{name}: not a readable zip archive ({e})") from None
     except RuntimeError as e:     # an encrypted member

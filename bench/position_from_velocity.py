@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.records import Record
+from bench.records import Record, column_index
 
 WARNING = ("the file has no position column: the position was integrated from the velocity column "
            "(its origin is unknown, and an offset in the velocity makes it drift), so effects locked "
@@ -18,9 +18,7 @@ WARNING = ("the file has no position column: the position was integrated from th
 
 def velocity_only(mapping: dict, names: list) -> bool:
     """Is a velocity column mapped and no position column there?"""
-    def there(col):
-        return col is not None and (col in names or (str(col).isdigit() and 1 <= int(col) <= len(names)))
-    return there(mapping.get("qd")) and not there(mapping.get("q"))
+    return column_index(mapping.get("qd"), names) is not None and column_index(mapping.get("q"), names) is None
 
 
 def integrate(rec: Record) -> None:

@@ -25,7 +25,7 @@ from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
 from bench.joined_streams import VALUES, onto_kept_rows, sparse_columns
-from bench.records import REQUIRED, Record, _parse_meta_value, validate
+from bench.records import REQUIRED, Record, _parse_meta_value, column_index, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.sample_rate import sample_rate_of
@@ -97,8 +97,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     explicit = mapping is not None
     names = _names(table)
     mapping = mapping or header_units.default_mapping(names, ROLES, REQUIRED)
-    if not explicit and mapping.get("t") not in names and split_stamps.stamp_column(names):
-        mapping["t"] = split_stamps.stamp_column(names)     # a ROS stamp in sec + nanosec
+    if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):
+        mapping["t"] = stamp     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
     rate = sample_rate_of(sample_rate, meta, mapping, names, name, plain=fmt != "mat" and not given)
     if rate is not None:
@@ -312,10 +312,9 @@ def _names(table) -> list[str]:
 
 def _column_key(table, col: str, role: str, name: str, explicit: bool):
     names = _names(table)
-    if col in names:
-        return col
-    if col.isdigit() and 1 <= int(col) <= len(names):
-        return names[int(col) - 1]
+    at = column_index(col, names)
+    if at is not None:
+        return names[at]
     shown = ", ".join(names[:40]) + (" ..." if len(names) > 40 else "")
     if explicit:
         raise InputError(f"{name}: no column {col!r} (for {role}); the file's columns: {shown}")

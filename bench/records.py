@@ -85,6 +85,17 @@ class Record:
         return text
 
 
+def column_index(col, names: list) -> int | None:
+    """Where a mapped column is among the file's ``names``: by its name, or by its 1-based
+    number (``t=1``); None when it is not there."""
+    if col is None:
+        return None
+    if col in names:
+        return names.index(col)
+    col = str(col)
+    return int(col) - 1 if col.isdigit() and 1 <= int(col) <= len(names) else None
+
+
 def asks_estimate(inertia) -> bool:
     """Is this inertia setting the word asking for it to be read off the record (``estimate``)?"""
     return isinstance(inertia, str) and inertia.strip().lower() == "estimate"

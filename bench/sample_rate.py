@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 from bench.errors import InputError
+from bench.records import column_index
 
 RATE_KEYS = ("sample_rate", "sampling_rate", "rate_hz")
 PERIOD_KEYS = ("sample_period", "sample_interval", "dt")
@@ -15,7 +16,7 @@ PERIOD_KEYS = ("sample_period", "sample_interval", "dt")
 def sample_rate_of(option, meta: dict, mapping: dict, names: list, name: str, plain: bool) -> float | None:
     """The rows' rate [Hz] when the record's times come from it, else None."""
     t = mapping.get("t")
-    has_t = t is not None and (t in names or (str(t).isdigit() and 1 <= int(t) <= len(names)))
+    has_t = column_index(t, names) is not None
     stated = _stated(meta, name)
     if option is not None:
         rate = _positive(option, "--sample-rate", name)
