@@ -90,18 +90,3 @@ def apply(rec) -> None:
             warned[role] = (f"{stated[role]!r} is not a {ROLE_NAMES[role]} unit: taken in {si} "
                             f"(give {key.replace('_', '-')} K*{si}, K in {si} per {stated[role]})")
     rec.reading["header_units"] = {"taken": taken, "ignored": warned}
-
-
-def default_mapping(names: list[str], roles, required) -> dict:
-    """With no --columns: each role's column by its own name, or by its name with a unit
-    ("t [s]", "q (deg)"); a required role with no column keeps its name (the reader says
-    it is missing)."""
-    out = {}
-    split = {n: split_unit(n) for n in names}
-    for role in roles:
-        hits = [n for n, (bare, unit) in split.items() if n == role or (unit and bare == role)]
-        if hits:
-            out[role] = role if role in names else hits[0]
-        elif role in required:
-            out[role] = role
-    return out

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import header_units, own_times, position_from_velocity, split_stamps
+from bench import column_names, header_units, own_times, position_from_velocity, split_stamps
 from bench.coarse_time import spread
 from bench.containers import strip_suffix, unwrap
 from bench.counters import unwrap_counter
@@ -96,7 +96,9 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     units_row = units_row or {}
     explicit = mapping is not None
     names = _names(table)
-    mapping = mapping or header_units.default_mapping(names, ROLES, REQUIRED)
+    by_name = {}
+    if mapping is None:         # roles by their own names or as loggers name them (bench.column_names)
+        mapping, by_name = column_names.default_mapping(names, ROLES, REQUIRED)
     if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):
         mapping["t"] = stamp     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
@@ -152,6 +154,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["stated_units"] = stated
     if text_row:
         rec.reading["text_row_skipped"] = True
+    if by_name := {r: c for r, c in by_name.items() if mapping.get(r) == c}:
+        rec.reading["columns_by_name"] = by_name
     if own:
         rec.reading["own_times"] = own
     return _finish(rec, name, fmt, opts, span, wrapped)

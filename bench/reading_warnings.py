@@ -28,6 +28,8 @@ UNWRAPPED_WARNING = ("the position wraps at a whole turn ({n} times in the recor
                      "the analysis")
 GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and back (encoder or "
                   "logger glitches): their positions were interpolated from the samples around them")
+BY_NAME_WARNING = ("no column mapping was given: {taken} were taken by their names; map them with "
+                   "--columns if another column is meant (a command beside a reading, say)")
 TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
                     "skipped as a description row")
 # a guess, so said: a header's unit in another code page (a degree sign) could read wrong
@@ -109,6 +111,9 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
             + (OWN_CLOCK_ROUGH if ff.get("clock") == NOT_PINNED else ""))
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
+    if r.get("columns_by_name"):
+        taken = ", ".join(f"{c!r} as {WHAT.get(role, 'time')}" for role, c in r["columns_by_name"].items())
+        out.append(BY_NAME_WARNING.format(taken=taken))
     if r.get("text_row_skipped"):
         out.append(TEXT_ROW_WARNING)
     if r.get("position_from") == "qd":

@@ -1,0 +1,60 @@
+"""A column's role told by the name loggers give it, when no ``--columns`` maps it.
+
+Without a mapping only ``t``, ``tau``, ``q`` and ``qd`` (with or without a unit: "q [deg]")
+were read, and a ROS ``joint_states`` export (position, velocity, effort), a drive's CiA 402
+names ("Position actual value") or a plain "time,position,torque" log was refused until the
+user mapped every column.  A role's own name still wins; otherwise a column whose whole name,
+in any case and with blanks, dots or dashes as underscores, is one of the names below takes
+the role.  Only exact names, and only one column a role: a log with both "torque" and
+"effort", or a "torque_cmd" beside a "torque_measured", keeps asking for a mapping, since a
+command read as the reading is a wrong answer, not a refusal.  What was taken by name is said
+in the report (``reading.columns_by_name``) so that a wrong guess is seen.
+"""
+from __future__ import annotations
+
+import re
+
+from bench.header_units import split_unit
+
+# names in logs users have sent or that their tools write: ROS joint_states (position,
+# velocity, effort), Franka (dq, tau_J), CiA 402 object names, data-acquisition exports
+NAMES = {
+    "t": ("time", "timestamp", "time_stamp", "stamp", "times", "elapsed_time"),
+    "q": ("position", "pos", "angle", "theta", "joint_position", "joint_angle", "actual_position",
+          "position_actual_value", "measured_position", "q_measured", "q_meas"),
+    "qd": ("velocity", "vel", "speed", "dq", "qdot", "q_dot", "omega", "joint_velocity",
+           "actual_velocity", "velocity_actual_value", "measured_velocity", "angular_velocity"),
+    "tau": ("torque", "effort", "force", "tau_j", "tau_meas", "tau_measured", "measured_torque",
+            "joint_torque", "actual_torque", "torque_actual_value", "friction", "friction_torque",
+            "tau_f"),
+}
+_SEPARATORS = re.compile(r"[\s.\-]+")
+
+
+def normalised(name: str) -> str:
+    """"Position actual value [inc]" -> "position_actual_value"."""
+    return _SEPARATORS.sub("_", split_unit(str(name))[0].strip()).lower()
+
+
+def default_mapping(names: list[str], roles, required) -> tuple[dict, dict]:
+    """With no --columns: each role's column by its own name or its name with a unit ("t [s]",
+    "q (deg)"), else by the one column named as loggers name it (``NAMES``); a required role
+    with no column keeps its name (the reader says it is missing).  Returns the mapping and
+    the roles taken by a logger's name {role: column}."""
+    out, guessed = {}, {}
+    split = {n: split_unit(n) for n in names}
+    taken = set()
+    for role in roles:
+        hits = [n for n, (bare, unit) in split.items() if n == role or (unit and bare == role)]
+        if hits:
+            out[role] = role if role in names else hits[0]
+            taken.add(out[role])
+    for role in roles:
+        if role in out:
+            continue
+        hits = [n for n in names if n not in taken and normalised(n) in NAMES.get(role, ())]
+        if len(hits) == 1:
+            out[role] = guessed[role] = hits[0]
+        elif role in required:
+            out[role] = role
+    return out, guessed

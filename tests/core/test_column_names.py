@@ -1,0 +1,72 @@
+"""Columns named as loggers name them (bench.column_names): with no --columns, a ROS
+joint_states export's position/velocity/effort, a drive's CiA 402 object names or a plain
+time,position,torque log are read, and the report says what was taken by name; two columns
+that could each be the torque keep asking for a mapping.  Fresh seed 10238 (j3, 20 s)."""
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from bench.cli import app
+from bench.column_names import default_mapping
+from bench.errors import InputError
+from bench.readers import REQUIRED, ROLES, read_record
+from virtual_drives.joint import simulate_record
+from virtual_drives.presets import PRESETS
+
+J3 = PRESETS["j3"]
+
+
+@pytest.fixture(scope="module")
+def rec():
+    return simulate_record(J3, *J3.excitation, duration=20.0, seed=10238).record
+
+
+def _log(rec, header: str, deg: bool = False) -> str:
+    """No '#' lines: a logger's CSV, its columns in the order t, q, qd, tau."""
+    k = 180 / np.pi if deg else 1.0
+    qd = np.gradient(rec.q, rec.t)
+    rows = (f"{t:.6f},{q * k:.10g},{v * k:.8g},{x:.9g}" for t, q, v, x in zip(rec.t, rec.q, qd, rec.tau))
+    return header + "\n" + "\n".join(rows) + "\n"
+
+
+def test_a_joint_states_export_is_analysed_without_a_mapping(rec, tmp_path):
+    p = tmp_path / "joint_states.csv"
+    p.write_text(_log(rec, "time,position,velocity,effort"))
+    out = tmp_path / "r.json"
+    res = CliRunner().invoke(app, ["analyze", str(p), "--inertia", "30", "--joint-type", "revolute",
+                                   "--no-diagnosis", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["input"]["columns"] == {"t": "time", "tau": "effort", "q": "position", "qd": "velocity"}
+    said = [w for w in doc["warnings"] if "taken by their names" in w]
+    assert len(said) == 1 and "'effort' as torque" in said[0], doc["warnings"]
+    p_ = doc["parameters"]
+    for k in ("Fc", "Fs", "sigma2"):
+        assert abs(p_[k] / getattr(J3.friction, k) - 1) < 0.05, (k, p_[k])
+
+
+def test_drive_object_names_with_units_are_read_in_their_units(rec):
+    raw = _log(rec, "Time [s],Position actual value [deg],Velocity actual value [deg/s],Torque actual value [N*m]",
+               deg=True)
+    got = read_record(raw.encode(), name="drive.csv", inertia=30.0)
+    np.testing.assert_allclose(got.q, rec.q, atol=1e-8)
+    assert got.reading["columns_by_name"]["q"] == "Position actual value [deg]"
+    assert got.reading["header_units"]["taken"]["q"] == "deg"
+
+
+def test_a_role_named_by_its_own_name_wins_and_is_not_said(rec):
+    mapping, by_name = default_mapping(["t", "tau", "q", "position", "velocity"], ROLES, REQUIRED)
+    assert mapping == {"t": "t", "tau": "tau", "q": "q", "qd": "velocity"} and by_name == {"qd": "velocity"}
+
+
+@pytest.mark.parametrize("header,role", [("time,position,torque,effort", "tau"),       # which one?
+                                         ("time,position,torque_cmd,torque_measured", "tau"),
+                                         ("time,pos,angle,effort", "q")])
+def test_a_column_that_is_not_named_one_way_is_left_to_the_user(rec, header, role):
+    raw = _log(rec, header)
+    with pytest.raises(InputError) as err:
+        read_record(raw.encode(), name="log.csv", inertia=30.0)
+    assert str(err.value).startswith(f"log.csv: missing column '{role}' (header is: {header.replace(',', ', ')})"), \
+        str(err.value)
