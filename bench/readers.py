@@ -14,6 +14,7 @@ report.  Every problem is an ``InputError`` of one line.
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -36,17 +37,21 @@ from bench.units import to_si
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
+_ITEMS = re.compile(r'(?:[^,"]|"[^"]*")+')
 META_UNITS = ("joint_type", "time_unit", "position_unit", "torque_unit", "torque_hold")
 
 
 def parse_columns(spec: str | None) -> dict | None:
-    """``t=time,tau=torque,q=pos`` -> {'t': 'time', ...}; None for no mapping."""
+    """``t=time,tau=torque,q=pos`` -> {'t': 'time', ...}; None for no mapping.  A name with a
+    comma in it is quoted: ``t="time, s"`` (or the whole item, ``"t=time, s"``)."""
     if spec is None or not spec.strip():
         return None
+    if spec.count('"') % 2:
+        raise InputError(f"--columns: a quote is not closed in {spec.strip()!r}")
     out = {}
-    for item in spec.split(","):
+    for item in _ITEMS.findall(spec):    # a name quoted, "time, s", may hold a comma
         role, eq, col = item.partition("=")
-        role, col = role.strip(), col.strip()
+        role, col = role.strip().strip('"'), col.strip().strip('"')
         if not eq or not col:
             raise InputError(f"--columns: {item.strip()!r} is not ROLE=NAME (roles: {', '.join(ROLES)})")
         if role not in ROLES:

@@ -578,6 +578,9 @@ def test_a_quoted_header_name_holding_the_delimiter_stays_one_column():
     rec = simulate_record(PRESETS["j3"], *PRESETS["j3"].excitation, duration=10.0, seed=10230).record
     body = '# inertia: 30\n"time, s","torque, N*m",q\n' + "\n".join(
         f"{t:.6f},{x:.9g},{q:.10g}" for t, x, q in zip(rec.t, rec.tau, rec.q))
-    got = read_record(body.encode(), name="excel.csv", columns="t=1,tau=2,q=3")
-    np.testing.assert_allclose(got.q, rec.q, atol=1e-9)
-    np.testing.assert_allclose(got.tau, rec.tau, rtol=1e-8)
+    for columns in ("t=1,tau=2,q=3", 't="time, s","tau=torque, N*m",q=q'):   # by number, or quoted
+        got = read_record(body.encode(), name="excel.csv", columns=columns)
+        np.testing.assert_allclose(got.q, rec.q, atol=1e-9)
+        np.testing.assert_allclose(got.tau, rec.tau, rtol=1e-8)
+    with pytest.raises(InputError, match="a quote is not closed"):
+        read_record(body.encode(), name="excel.csv", columns='t="time, s,tau=2,q=3')
