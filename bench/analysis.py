@@ -258,7 +258,8 @@ def _analyze(rec: Record, inertia, add, diagnose_effects: bool, cutoff, name: st
             ident.warnings.insert(0, REVERSED_WARNING)
         ident, rec, room = placed_in_room(ident, rec, name)    # a merged stream's clock
         step = torque_step(rec, ident.data.coulomb)
-        ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step, ident.data.held_poses)
+        ident.warnings[:0] = reading_warnings(rec, ident.data.coulomb, step, ident.data.held_poses,
+                                              ident.data.c.velocity_source)
         diag = None
         if diagnose_effects or add:
             diag = _diagnose(ident, rec, add)

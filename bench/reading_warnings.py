@@ -7,6 +7,7 @@ from __future__ import annotations
 from bench.containers import TRUNCATED_WARNING
 from bench.position_from_velocity import WARNING as POSITION_FROM_VELOCITY
 from bench.records import Record
+from bench.signals import SET_ASIDE
 from bench.slow_stream import HELD, JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
@@ -79,10 +80,12 @@ def refusal_hint(rec: Record) -> str:
     return "".join(MERGED_REFUSAL.format(what=WHAT[c], rate=ff["rate_hz"]) for c, ff in merged[:1])
 
 
-def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()) -> list[str]:
+def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = (),
+                     velocity_from: str = "q") -> list[str]:
     """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque
     reading's step when it is coarse (``perfect_model.torque_step``), else 0; ``held``: the
-    held poses left out [(t0, t1)]."""
+    held poses left out [(t0, t1)]; ``velocity_from``: where the fit's velocity came from
+    (``bench.signals.velocity_source``)."""
     r = rec.reading
     out = []
     if torque_step > 0:
@@ -112,8 +115,12 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
     if r.get("glitches"):
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("columns_by_name"):
-        taken = ", ".join(f"{c!r} as {WHAT.get(role, 'time')}" for role, c in r["columns_by_name"].items())
+        aside = velocity_from.endswith(f"{SET_ASIDE})")     # a velocity in another unit
+        taken = ", ".join(f"{c!r} as {WHAT.get(role, 'time')}" for role, c in r["columns_by_name"].items()
+                          if not (aside and role == "qd"))
         out.append(BY_NAME_WARNING.format(taken=taken))
+        if aside:
+            out.append(f"the velocity was taken from the position: {velocity_from[3:-1]}")
     if r.get("text_row_skipped"):
         out.append(TEXT_ROW_WARNING)
     if r.get("position_from") == "qd":

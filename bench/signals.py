@@ -378,6 +378,14 @@ def filtfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     return signal.sosfiltfilt(sos, x, padlen=len(x) - 1) if len(x) > 1 else np.array(x, dtype=float)
 
 
+# a velocity logged in another unit than the position's per second: qd / (dq/dt) for the units
+# drives and loggers use (rpm against rad, deg/s against rad, rad/s against deg, rpm against deg)
+UNIT_RATIOS = {"rpm against rad": 60 / (2 * np.pi), "deg/s against rad": 180 / np.pi,
+               "rad/s against deg": np.pi / 180, "rpm against deg": 1 / 6, "rev/s against rad": 1 / (2 * np.pi),
+               "mm/s against m": 1e3, "m/s against mm": 1e-3}
+
+SET_ASIDE = "set aside"
+
 # qd is used unless it is clearly noisier than the position's own differences: a logged
 # velocity (a tachometer, a drive's observer) is usually the cleaner one; a noisy one is not
 QD_NOISE_RATIO = 2.0
@@ -397,7 +405,11 @@ def velocity_source(rec: Record, dt: float, name: str = "record",
         vq, vd = vq[keep], vd[keep]
     ratio = float(vd @ vq / max(vq @ vq, 1e-300))
     if not 0.8 < ratio < 1.25:
-        raise InputError(f"{name}: column qd is {ratio:.3g} times the derivative of q; "
+        unit = next((f", as {u} would be" for u, k in UNIT_RATIOS.items() if abs(ratio / k - 1) < 0.03), "")
+        by_name = rec.reading.get("columns_by_name", {}).get("qd")
+        if by_name is not None:     # our guess, not the user's word: the position alone serves
+            return False, f"q (the column {by_name!r} is {ratio:.3g} times its derivative{unit}, and was {SET_ASIDE})"
+        raise InputError(f"{name}: column qd is {ratio:.3g} times the derivative of q{unit}; "
                          "give both in the same unit (position unit per second), or leave qd out")
     n_q = float(np.std(np.diff(vq, 2)))
     n_qd = float(np.std(np.diff(vd, 2)))

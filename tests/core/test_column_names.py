@@ -70,3 +70,27 @@ def test_a_column_that_is_not_named_one_way_is_left_to_the_user(rec, header, rol
         read_record(raw.encode(), name="log.csv", inertia=30.0)
     assert str(err.value).startswith(f"log.csv: missing column '{role}' (header is: {header.replace(',', ', ')})"), \
         str(err.value)
+
+
+def test_a_velocity_in_another_unit_found_by_name_is_set_aside_and_mapped_is_refused(rec, tmp_path):
+    """A drive logs its speed in rpm beside a position in rad: taken by our guess, the speed
+    is set aside (the position alone serves) and said; mapped by the user, it is refused with
+    the unit it looks like."""
+    rpm = 60 / (2 * np.pi)
+    body = _log(rec, "time,position,velocity,torque").splitlines()
+    body = [body[0]] + [",".join(f"{float(x) * rpm:.8g}" if i == 2 else x for i, x in enumerate(ln.split(",")))
+                        for ln in body[1:]]
+    p = tmp_path / "drive.csv"
+    p.write_text("\n".join(body) + "\n")
+    out = tmp_path / "r.json"
+    runner = CliRunner()
+    res = runner.invoke(app, ["analyze", str(p), "--inertia", "30", "--no-diagnosis", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["input"]["velocity_from"].startswith("q (the column 'velocity' is 9.55 times"), doc["input"]
+    said = [w for w in doc["warnings"] if "as rpm against rad would be, and was set aside" in w]
+    assert len(said) == 1 and not any("'velocity' as velocity" in w for w in doc["warnings"]), doc["warnings"]
+    assert abs(doc["parameters"]["Fc"] / J3.friction.Fc - 1) < 0.05, doc["parameters"]
+    res = runner.invoke(app, ["analyze", str(p), "--inertia", "30", "--columns", "t=time,tau=torque,q=position,qd=velocity"])
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert res.exit_code == 2 and len(lines) == 1 and "9.55 times the derivative of q, as rpm against rad would be" in lines[0], res.output
