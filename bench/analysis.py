@@ -26,7 +26,7 @@ from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, judged
 from bench.perfect_model import replay, torque_step
 from bench.measured_start import measured_start
-from bench.reading_warnings import reading_warnings, refusal_hint
+from bench.reading_warnings import reading_warnings, with_hint
 from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
@@ -254,7 +254,7 @@ def _analyze(rec: Record, inertia, add, diagnose_effects: bool, cutoff, name: st
                 rec = _torque_reversed(rec)
                 ident = identify(rec, inertia=inertia, cutoff=cutoff, name=name)
             except NotIdentifiable:
-                raise NotIdentifiable(f"{refused}{refusal_hint(rec)}") from None
+                raise NotIdentifiable(with_hint(str(refused), rec, name)) from None
             ident.warnings.insert(0, REVERSED_WARNING)
         ident, rec, room = placed_in_room(ident, rec, name)    # a merged stream's clock
         step = torque_step(rec, ident.data.coulomb)

@@ -33,7 +33,7 @@ from bench.sample_rate import sample_rate_of
 from bench.slow_stream import filled_forward
 from bench.text_table import read_text
 from bench.turns import unwrap_turns
-from bench.units import to_si
+from bench.units import to_si, whole_number_position
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
@@ -180,6 +180,8 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None, wrapped: dict | None 
     counter = unwrap_counter(rec)       # in the file's own unit, before it is converted
     if counter:
         rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}
+    if counts := whole_number_position(rec):    # encoder counts with no unit given
+        rec.reading["whole_number_position"] = counts
     to_si(rec, name)
     if rec.reading.get("position_from") == "qd":
         position_from_velocity.integrate(rec)

@@ -72,12 +72,34 @@ MERGED_REFUSAL = ("; the {what} column is a slower stream ({rate:.4g} Hz) merged
                   "own, the other cells empty) and each reading is placed at its own time")
 
 
+# a position of whole numbers with no unit (bench.units.whole_number_position)
+COUNTS_WARNING = ("the position column holds whole numbers only ({lo:g} to {hi:g}) and states no "
+                  "unit, so it was taken in {si}: if these are encoder counts, give --position-unit "
+                  "K*{si} (K: {si} per count, 0.0015339808*rad for 4096 a turn)")
+
+
+def with_hint(refusal: str, rec: Record, name: str) -> str:
+    """A refusal with what the reading suggests: a position that looks like encoder counts
+    read as SI first (the likelier cause than the refusal's own), a column from a slower
+    stream merged onto the rows without its own times last."""
+    if counts := rec.reading.get("whole_number_position"):
+        head = f"{name}: "
+        body = refusal[len(head):] if refusal.startswith(head) else refusal
+        return f"{head}{_counts_warning(rec, counts)}; {body}"
+    return refusal + refusal_hint(rec)
+
+
 def refusal_hint(rec: Record) -> str:
     """What to add to a refusal when a column came from a slower stream merged onto the rows
     without its own times (empty otherwise)."""
     merged = [(c, ff) for c, ff in rec.reading.get("filled_forward", {}).items()
               if ff.get("clock") != JOINED_CLOCK and ff.get("read_as") != HELD]
     return "".join(MERGED_REFUSAL.format(what=WHAT[c], rate=ff["rate_hz"]) for c, ff in merged[:1])
+
+
+def _counts_warning(rec: Record, counts) -> str:
+    si = "m" if str(rec.meta.get("joint_type", "revolute")).lower() == "prismatic" else "rad"
+    return COUNTS_WARNING.format(lo=counts[0], hi=counts[1], si=si)
 
 
 def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = (),
@@ -88,6 +110,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
     (``bench.signals.velocity_source``)."""
     r = rec.reading
     out = []
+    if r.get("whole_number_position"):
+        out.append(_counts_warning(rec, r["whole_number_position"]))
     if torque_step > 0:
         unit = "N" if str(rec.meta.get("joint_type", "revolute")).lower() == "prismatic" else "N·m"
         out.append(COARSE_TORQUE_WARNING.format(step=torque_step, unit=unit, share=100 * torque_step / abs(fc)))

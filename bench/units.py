@@ -85,3 +85,22 @@ def to_si(rec: Record, name: str) -> None:
             else:
                 rec.tau = rec.tau * factor
     rec.reading["units"] = conv
+
+
+# A position of whole numbers only, over this many of them, with no unit stated: no encoder
+# resolves one radian or one metre, so these are counts (a drive's "Position actual value").
+# Read as radians, j3's sine test in 4096-a-turn counts was refused as a clock or inertia
+# error (M q'' 0.98x the friction at top speed), which sends a technician the wrong way.
+WHOLE_COUNTS = 20
+
+
+def whole_number_position(rec: Record) -> tuple[float, float] | None:
+    """(lowest, highest) when ``rec.q`` holds whole numbers only, spanning at least
+    ``WHOLE_COUNTS``, and no position unit is stated; else None."""
+    if rec.meta.get("position_unit") is not None or rec.reading.get("position_from") == "qd":
+        return None
+    q = np.asarray(rec.q, dtype=float)
+    q = q[np.isfinite(q)]
+    if len(q) == 0 or np.ptp(q) < WHOLE_COUNTS or not np.all(q == np.round(q)):
+        return None
+    return float(q.min()), float(q.max())
