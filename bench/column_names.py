@@ -8,13 +8,15 @@ in any case and with blanks, dots or dashes as underscores, is one of the names 
 the role.  Only exact names, and only one column a role: a log with both "torque" and
 "effort", or a "torque_cmd" beside a "torque_measured", keeps asking for a mapping, since a
 command read as the reading is a wrong answer, not a refusal.  What was taken by name is said
-in the report (``reading.columns_by_name``) so that a wrong guess is seen.
+in the report (``reading.columns_by_name``) so that a wrong guess is seen.  A unit after an
+underscore, "q_deg" or "time_ms", is read as "q [deg]" is, mapped or not (``suffix_unit``).
 """
 from __future__ import annotations
 
 import re
 
 from bench.header_units import split_unit
+from bench.units import TABLES, factor_of
 
 # names in logs users have sent or that their tools write: ROS joint_states (position,
 # velocity, effort), Franka (dq, tau_J), CiA 402 object names, data-acquisition exports
@@ -29,11 +31,33 @@ NAMES = {
             "tau_f"),
 }
 _SEPARATORS = re.compile(r"[\s.\-]+")
+# "q_m" is a motor's position as often as one in metres, so a bare "_m" says no unit
+_NOT_A_SUFFIX = {"q": {"m"}}
 
 
 def normalised(name: str) -> str:
     """"Position actual value [inc]" -> "position_actual_value"."""
     return _SEPARATORS.sub("_", split_unit(str(name))[0].strip()).lower()
+
+
+# a velocity's unit after an underscore ("dq_rad_s", "velocity_deg_per_s", "speed_rpm"): only
+# to find the column; qd is read in the position's unit per second (bench.signals checks it)
+_VELOCITY_SUFFIX = re.compile(r"_(?:(?:rad|deg|rev|m|mm|um)_?(?:per_)?s|rpm)$", re.IGNORECASE)
+
+
+def suffix_unit(name: str, role: str) -> str | None:
+    """The unit a column's name ends with after an underscore, "q_deg", "time_ms", "tau_Nm",
+    when it is one of ``role``'s units (of any joint type); else None.  Lab scripts name their
+    columns so, and read as SI an angle in degrees is 57x off without a word."""
+    if role == "qd":
+        m = _VELOCITY_SUFFIX.search(str(name))
+        return m.group(0)[1:] if m else None
+    base, sep, unit = str(name).rpartition("_")
+    if not sep or not base or role not in TABLES or unit in _NOT_A_SUFFIX.get(role, ()):
+        return None
+    table = TABLES[role]
+    known = table if role == "t" else {k: v for by_type in table.values() for k, v in by_type.items()}
+    return unit if factor_of(unit, known) else None
 
 
 def default_mapping(names: list[str], roles, required) -> tuple[dict, dict]:
@@ -53,6 +77,9 @@ def default_mapping(names: list[str], roles, required) -> tuple[dict, dict]:
         if role in out:
             continue
         hits = [n for n in names if n not in taken and normalised(n) in NAMES.get(role, ())]
+        if not hits:        # "q_rad", "time_s": a name and its unit after an underscore
+            hits = [n for n in names if n not in taken and (u := suffix_unit(n, role))
+                    and normalised(n[:-len(u) - 1]) in (role, *NAMES.get(role, ()))]
         if len(hits) == 1:
             out[role] = guessed[role] = hits[0]
         elif role in required:

@@ -125,7 +125,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     clock, ticks = False, None
     for role, col in mapping.items():
         key = _column_key(table, col, role, name, explicit=explicit)
-        unit = units_row.get(key) or header_units.unit_in_name(str(key))
+        unit = units_row.get(key) or header_units.unit_in_name(str(key)) or column_names.suffix_unit(key, role)
         if unit and role in header_units.KEYS:
             stated[role] = unit
         values = _column(table, key)

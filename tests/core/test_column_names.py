@@ -94,3 +94,18 @@ def test_a_velocity_in_another_unit_found_by_name_is_set_aside_and_mapped_is_ref
     res = runner.invoke(app, ["analyze", str(p), "--inertia", "30", "--columns", "t=time,tau=torque,q=position,qd=velocity"])
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert res.exit_code == 2 and len(lines) == 1 and "9.55 times the derivative of q, as rpm against rad would be" in lines[0], res.output
+
+
+def test_a_unit_after_an_underscore_is_read_mapped_or_not(rec):
+    """Lab scripts name columns "t_s, q_deg, tau_Nm": read in those units, as "q [deg]" is;
+    "q_m" is a motor's position as often as one in metres, so it says no unit."""
+    raw = _log(rec, "t_s,q_deg,dq_deg_s,tau_Nm", deg=True).encode()
+    got = read_record(raw, name="lab.csv", inertia=30.0)
+    np.testing.assert_allclose(got.q, rec.q, atol=1e-8)
+    assert got.reading["columns"] == {"t": "t_s", "tau": "tau_Nm", "q": "q_deg", "qd": "dq_deg_s"}
+    assert got.reading["header_units"]["taken"] == {"t": "s", "tau": "N*m", "q": "deg"}
+    mapped = read_record(raw.replace(b"q_deg", b"joint_angle_deg", 1), name="lab.csv", inertia=30.0,
+                         columns="t=t_s,tau=tau_Nm,q=joint_angle_deg")
+    np.testing.assert_allclose(mapped.q, rec.q, atol=1e-8)
+    mapping, _ = default_mapping(["t", "tau", "q_m", "q_l"], ROLES, REQUIRED)
+    assert mapping["q"] == "q"          # neither taken: the reader then says q is missing

@@ -197,9 +197,9 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     t = logged(Record(t=t1k, tau=F, q=q_deg), 5331, drop=0.002)
     ticks = 1_764_190_000_000_000_000 + np.round(t * 1e9).astype(np.int64)
     path = tmp_path / "ros.csv"
-    path.write_text("stamp_ns,friction,angle\n" + "\n".join(
-        f"{a},{b:.6g},{c:.9g}" for a, b, c in zip(ticks, np.interp(t, t1k, F), np.interp(t, t1k, q_deg))))
-    args = ("analyze", path, "--columns", "t=stamp_ns,tau=friction,q=angle", "--inertia", "0",
+    body = "\n".join(f"{a},{b:.6g},{c:.9g}" for a, b, c in zip(ticks, np.interp(t, t1k, F), np.interp(t, t1k, q_deg)))
+    path.write_text("stamp,friction,angle\n" + body)
+    args = ("analyze", path, "--columns", "t=stamp,tau=friction,q=angle", "--inertia", "0",
             "--position-unit", "deg")
     r = run(*args)
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
@@ -212,6 +212,10 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
     written = [ln.split(",")[0] for ln in out.read_text().splitlines()[1:]]
     assert written == [str(k) for k in ticks]
+    # a column whose name says its unit (bench.column_names.suffix_unit) needs no option
+    named = read_record(("stamp_ns,friction,angle\n" + body).encode(), name="ros.csv",
+                        columns="t=stamp_ns,tau=friction,q=angle", inertia=0.0, position_unit="deg")
+    assert named.reading["units"]["time"] == {"from": "ns", "to": "s", "factor": 1e-9}
 
 
 def test_clock_times_in_a_csv_and_a_parquet_read_as_seconds_from_the_first(tmp_path):
