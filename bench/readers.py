@@ -330,6 +330,9 @@ def _column_key(table, col: str, role: str, name: str, explicit: bool):
     if explicit:
         raise InputError(f"{name}: no column {col!r} (for {role}); the file's columns: {shown}")
     rate = " (a file without times: --sample-rate HZ)" if role == "t" else ""
+    if all(str(n).isdigit() for n in names):       # numbered by the reader: no header line
+        raise InputError(f"{name}: the file has no header line ({len(names)} columns); map its columns "
+                         f"by number, --columns t=1,tau=2,q=3[,qd=4]{rate}")
     raise InputError(f"{name}: missing column '{role}' (header is: {shown}); map yours with "
                      f"--columns t=NAME,tau=NAME,q=NAME{rate}")
 

@@ -68,6 +68,8 @@ HEADER = "# inertia: 1.0\nt,tau,q\n"
     ("gaps", HEADER + "".join(f"{i / 1000 + 0.05 * (i // 3)},{np.sin(i)},{i}\n" for i in range(60)), "segments too short"),
     ("constant position", HEADER + "".join(f"{i/1000},{np.sin(i/50)},0.5\n" for i in range(400)), "position is constant"),
     ("empty", "", "no header"),
+    ("no header line", "".join(f"{i/1000},{np.sin(i/50)},{i}\n" for i in range(40)),
+     "the file has no header line (3 columns); map its columns by number, --columns t=1,tau=2,q=3"),
 ])
 def test_bad_records_give_one_line_and_exit_2(tmp_path, case, content, expect):
     r = run("analyze", _bad(tmp_path, content))
