@@ -31,6 +31,8 @@ GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and ba
                   "logger glitches): their positions were interpolated from the samples around them")
 BY_NAME_WARNING = ("no column mapping was given: {taken} were taken by their names; map them with "
                    "--columns if another column is meant (a command beside a reading, say)")
+PREAMBLE_WARNING = ("{n} line(s) before the header, from {first!r}, were skipped as the export's "
+                    "preamble (bench.text_table); check that the header read is the one meant")
 TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
                     "skipped as a description row")
 # a guess, so said: a header's unit in another code page (a degree sign) could read wrong
@@ -145,6 +147,9 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(BY_NAME_WARNING.format(taken=taken))
         if aside:
             out.append(f"the velocity was taken from the position: {velocity_from[3:-1]}")
+    if r.get("preamble_lines"):
+        lines = r["preamble_lines"]
+        out.append(PREAMBLE_WARNING.format(n=len(lines), first=lines[0][:60]))
     if r.get("text_row_skipped"):
         out.append(TEXT_ROW_WARNING)
     if r.get("position_from") == "qd":

@@ -27,6 +27,7 @@ def read_text(raw: bytes, name: str):
         meta = split_metadata("\n".join(_META.findall(text)))[0]
         body = _META.sub("", text)
     body = body.lstrip()     # Arrow skips empty lines, not leading blank ones before the header
+    body, preamble = _after_preamble(body)
     first = _line(body, 0).strip()
     if not first:
         raise InputError(f"{name}: no header row and no data")
@@ -65,7 +66,54 @@ def read_text(raw: bytes, name: str):
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
-    return table, meta, fmt, units_row, encoding
+    return table, meta, fmt, units_row, encoding, preamble
+
+
+# Lines a data-acquisition or scope export writes before its header ("Logger export",
+# "Sample rate: 1000", a blank line) were refused as rows of the wrong length.  The header is
+# the line above the first run of data rows (or above a units row there); what precedes it
+# is skipped and said.  Only the first lines are looked at: a preamble is a few lines long.
+PREAMBLE_LINES = 200
+DATA_RUN = 3        # rows of one length, at least half of each a number: the table has begun
+
+
+def _after_preamble(body: str) -> tuple[str, list[str]]:
+    """``body`` from its header on, and the preamble's lines before it (empty: none)."""
+    lines = body[:200_000].split("\n", PREAMBLE_LINES + DATA_RUN)[:PREAMBLE_LINES + DATA_RUN]
+    fields = [_split(ln) for ln in lines]
+    start = next((i for i in range(min(len(lines), PREAMBLE_LINES))
+                  if all(_data_like(f) and len(f) == len(fields[i]) for f in fields[i:i + DATA_RUN])), None)
+    if start is None or start < 2:
+        return body, []
+    head = start - 1
+    if len(fields[start - 2]) == len(fields[start - 1]) and \
+            header_units.split_units_row(fields[start - 2], fields[start - 1]) is not None:
+        head = start - 2     # a units or description row under the names
+    names = fields[head]
+    # only a header of names as long as the rows, above lines that are not rows of the table:
+    # otherwise the file is read as it was (a row of empty cells is not a preamble)
+    if (not any(ln.strip() for ln in lines[:head]) or len(names) != len(fields[start])
+            or any(_is_number(f) for f in names)
+            or any(len(f) == len(names) and _data_like(f) for f in fields[:head])):
+        return body, []
+    at = 0
+    for _ in range(head):
+        at = body.find("\n", at) + 1
+    return body[at:], [ln.strip() for ln in lines[:head] if ln.strip()]
+
+
+def _split(line: str) -> list[str]:
+    line = line.strip()
+    delim = _delimiter(line)
+    return _fields(line, delim) if delim else line.split()
+
+
+def _data_like(fields: list[str]) -> bool:
+    """A data row: two fields or more, at least half of those not empty numbers (a decimal
+    comma too; an empty cell is a stream's lost or other reading)."""
+    filled = [f for f in fields if f]
+    numbers = sum(_is_number(f) or _is_number(f.replace(",", ".")) for f in filled)
+    return len(fields) >= 2 and numbers > 0 and 2 * numbers >= len(filled)
 
 
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")   # not tab, newline or carriage return

@@ -280,7 +280,7 @@ def test_analyze_parquet_and_mat_bodies_with_a_column_mapping(operator, tmp_path
 def test_analyze_a_logger_file_stating_its_units_with_a_wrapping_counter_and_angle(operator):
     """A logger's CSV as it comes (units in the header, a 16-bit millisecond counter, an angle
     in [-180, 180) degrees) through the server: the same parameters as the SI record, and the
-    report says what was read and unwrapped."""
+    report says what was read and unwrapped; the same with no mapping and its own names."""
     import numpy as np
     spec = preset("rotary")
     rec = simulate_record(spec, *spec.excitation, 8.0, dt=1e-3, seed=5402).record
@@ -298,6 +298,13 @@ def test_analyze_a_logger_file_stating_its_units_with_a_wrapping_counter_and_ang
     assert doc["units"]["from_header"] == {"t": "ms", "tau": "N*m", "q": "deg"}
     assert doc["input"]["time_counter"] == {"bits": 16, "wraps": 1} and doc["input"]["turns_unwrapped"] >= 1
     assert doc["parameters"] == pytest.approx(si.json()["parameters"], rel=1e-5)
+    # the same with a lab script's names, units after an underscore (bench.column_names)
+    named = text.replace("t [ms],tau [Nm],q [deg]", "time_ms,effort_Nm,angle_deg", 1)
+    r = operator.post("/analyze", content=named, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=180)
+    assert r.status_code == 200, r.text
+    assert r.json()["parameters"] == pytest.approx(si.json()["parameters"], rel=1e-5)
+    assert any("'angle_deg' as position" in w for w in r.json()["warnings"]), r.json()["warnings"]
 
 
 @pytest.mark.parametrize("content, ctype, status", [
