@@ -31,7 +31,7 @@ GLITCH_WARNING = ("{n} position samples jumped away from their neighbours and ba
                   "logger glitches): their positions were interpolated from the samples around them")
 BY_NAME_WARNING = ("no column mapping was given: {taken} were taken by their names; map them with "
                    "--columns if another column is meant (a command beside a reading, say)")
-PREAMBLE_WARNING = ("{n} line(s) before the header, from {first!r}, were skipped as the export's "
+PREAMBLE_WARNING = ("{n} line(s) before the table, from {first!r}, were skipped as the export's "
                     "preamble (bench.text_table); check that the header read is the one meant")
 TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
                     "skipped as a description row")

@@ -86,14 +86,16 @@ def _after_preamble(body: str) -> tuple[str, list[str]]:
     if start is None or start < 2:
         return body, []
     head = start - 1
-    if len(fields[start - 2]) == len(fields[start - 1]) and \
+    if not lines[head].strip():     # a blank line, then rows: no header (columns numbered)
+        head = start
+    elif len(fields[start - 2]) == len(fields[start - 1]) and \
             header_units.split_units_row(fields[start - 2], fields[start - 1]) is not None:
         head = start - 2     # a units or description row under the names
     names = fields[head]
     # only a header of names as long as the rows, above lines that are not rows of the table:
     # otherwise the file is read as it was (a row of empty cells is not a preamble)
     if (not any(ln.strip() for ln in lines[:head]) or len(names) != len(fields[start])
-            or any(_is_number(f) for f in names)
+            or (head < start and any(_is_number(f) for f in names))
             or any(len(f) == len(names) and _data_like(f) for f in fields[:head])):
         return body, []
     at = 0

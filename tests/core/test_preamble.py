@@ -29,7 +29,7 @@ def test_a_preamble_before_the_header_is_skipped_and_said(table, preamble):
     kept = [ln.strip() for ln in preamble.splitlines() if ln.strip()]
     assert got.reading["preamble_lines"] == kept
     said = [w for w in analyze_record(got, diagnose_effects=False).report()["warnings"] if "preamble" in w]
-    assert len(said) == 1 and said[0].startswith(f"{len(kept)} line(s) before the header"), said
+    assert len(said) == 1 and said[0].startswith(f"{len(kept)} line(s) before the table"), said
 
 
 def test_tables_without_a_preamble_are_read_as_they_were(table):
@@ -40,3 +40,8 @@ def test_tables_without_a_preamble_are_read_as_they_were(table):
                  "t,tau,q\n0.000,1.5,\n0.001,,\n0.002,,0.1\n" + rows,   # streams on rows of their own
                  "t,tau,q\n1,2,3\n" + "x,y,z\n" + rows):                # not a preamble: left to the reader
         assert _after_preamble(body) == (body, []), body[:60]
+
+
+def test_a_preamble_then_a_blank_line_then_rows_is_a_table_without_a_header(table):
+    _, rows = table
+    assert _after_preamble("Scope export\nRate: 1000\n\n" + rows) == (rows, ["Scope export", "Rate: 1000"])
