@@ -33,7 +33,7 @@ from bench.sample_rate import sample_rate_of
 from bench.slow_stream import filled_forward
 from bench.text_table import read_text
 from bench.turns import unwrap_turns
-from bench.units import to_si, whole_number_position
+from bench.units import to_si, velocity_factor, whole_number_position
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
@@ -124,12 +124,14 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     else:
         own_times.unnamed_time(table, names, mapping, name)
     data, stated = {}, {}
-    clock, ticks = False, None
+    clock, ticks, velocity_unit = False, None, None
     for role, col in mapping.items():
         key = _column_key(table, col, role, name, explicit=explicit)
         unit = units_row.get(key) or header_units.unit_in_name(str(key)) or column_names.suffix_unit(key, role)
         if unit and role in header_units.KEYS:
             stated[role] = unit
+        elif role == "qd" and (speed := velocity_factor(unit)):
+            velocity_unit = speed          # converted by its own unit (bench.units.to_si)
         values = _column(table, key)
         data[role] = _numeric(values, key, name, time=role == "t")
         fraction = split_stamps.fraction_of(key, names) if role == "t" and fmt != "mat" else None
@@ -161,6 +163,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["stated_units"] = stated
     if text_row:
         rec.reading["text_row_skipped"] = True
+    if velocity_unit:
+        rec.reading["velocity_unit"] = velocity_unit
     if by_name := {r: c for r, c in by_name.items() if mapping.get(r) == c}:
         rec.reading["columns_by_name"] = by_name
     if own:

@@ -65,6 +65,7 @@ def to_si(rec: Record, name: str) -> None:
         if factor != 1.0 and not rec.reading.get("clock_time"):
             conv["time"] = {"from": unit, "to": "s", "factor": factor}
             rec.t = np.asarray(rec.t, dtype=float) * factor
+    own = rec.reading.get("velocity_unit")     # a velocity column stating its own unit
     for key, table, role in (("position_unit", POSITION_UNITS, "position"), ("torque_unit", TORQUE_UNITS, "torque")):
         unit = rec.meta.get(key)
         if unit is None:
@@ -81,10 +82,37 @@ def to_si(rec: Record, name: str) -> None:
             rec.meta[key] = si
             if role == "position":
                 rec.q = rec.q * factor
-                rec.qd = None if rec.qd is None else rec.qd * factor
+                if rec.qd is not None and not own:
+                    rec.qd = rec.qd * factor
             else:
                 rec.tau = rec.tau * factor
+    if own and rec.qd is not None:
+        unit, factor = own
+        if factor != 1.0:
+            conv["velocity"] = {"from": unit, "to": f"{SI[jt][0]}/s", "factor": factor}
+            rec.qd = rec.qd * factor
     rec.reading["units"] = conv
+
+
+# A velocity column's own unit, stated in its header ("speed [rpm]", "dq [deg/s]", "v_mm_s"):
+# it was scaled by the position's factor, so a drive's rpm beside its degrees was refused
+VELOCITY_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": math.pi / 30.0, "rev/s": 2.0 * math.pi,
+                  "m/s": 1.0, "mm/s": 1e-3, "um/s": 1e-6}
+_VELOCITY_ALIASES = {"°/s": "deg/s", "1/min": "rpm", "r/min": "rpm", "rev/min": "rpm", "min^-1": "rpm",
+                     "µm/s": "um/s"}
+
+
+def velocity_factor(unit: str | None) -> tuple[str, float] | None:
+    """(unit, factor to SI) for a velocity unit as headers write it ("deg/s", "rad_s",
+    "deg_per_s", "RPM", "K*rad/s"); None if it is not one."""
+    if not unit:
+        return None
+    u = str(unit).strip().replace(" ", "").replace("_per_", "/")
+    u = re.sub(r"^(rad|deg|rev|m|mm|um)_s$", r"\1/s", u)
+    u = _VELOCITY_ALIASES.get(u, u)
+    u = u.lower() if u.lower() == "rpm" else u
+    found = factor_of(u, VELOCITY_UNITS)
+    return (found[1], found[0]) if found else None
 
 
 # A position of whole numbers only, over this many of them, with no unit stated: no encoder

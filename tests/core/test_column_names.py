@@ -109,3 +109,16 @@ def test_a_unit_after_an_underscore_is_read_mapped_or_not(rec):
     np.testing.assert_allclose(mapped.q, rec.q, atol=1e-8)
     mapping, _ = default_mapping(["t", "tau", "q_m", "q_l"], ROLES, REQUIRED)
     assert mapping["q"] == "q"          # neither taken: the reader then says q is missing
+
+
+def test_a_velocity_column_stating_its_own_unit_is_converted_by_it(rec):
+    """A drive logs degrees and rpm, each saying so: the speed is converted by its own unit
+    (it was scaled by the position's, 6x off, and refused or set aside)."""
+    qd = np.gradient(rec.q, rec.t)
+    rows = "\n".join(f"{t:.6f},{np.degrees(q):.10g},{v * 30 / np.pi:.8g},{x:.9g}"
+                     for t, q, v, x in zip(rec.t, rec.q, qd, rec.tau))
+    for header in ("time [s],angle [deg],speed [rpm],torque [Nm]", "t_s,q_deg,dq_rpm,tau_Nm"):
+        got = read_record(f"{header}\n{rows}\n".encode(), name="drive.csv", inertia=30.0)
+        np.testing.assert_allclose(got.qd, qd, rtol=1e-7, atol=1e-9)
+        assert got.reading["units"]["velocity"] == {"from": "rpm", "to": "rad/s", "factor": np.pi / 30}
+        assert got.reading["columns"]["qd"] == header.split(",")[2]
