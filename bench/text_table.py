@@ -98,9 +98,7 @@ def _after_preamble(body: str) -> tuple[str, list[str]]:
             or (head < start and any(_is_number(f) for f in names))
             or any(len(f) == len(names) and _data_like(f) for f in fields[:head])):
         return body, []
-    at = 0
-    for _ in range(head):
-        at = body.find("\n", at) + 1
+    at = sum(len(ln) + 1 for ln in lines[:head])      # the lines were split on "\n" alone
     return body[at:], [ln.strip() for ln in lines[:head] if ln.strip()]
 
 
