@@ -118,6 +118,8 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
                                                   description="M_jj [SI]; 0: the torque column is the friction; "
                                                               "estimate: read it off the record"),
                   columns: Optional[str] = Query(None, max_length=400, description="t=NAME,tau=NAME,q=NAME[,qd=NAME]; NAME@TIME: a column with a time column of its own"),
+                  joint: Optional[str] = Query(None, max_length=60, pattern=r"^[A-Za-z0-9_.\-]+$",
+                                               description="a log of several joints: this joint's number or name as the column names hold it"),
                   joint_type: Optional[str] = Query(None, pattern="^(revolute|prismatic)$"),
                   time_unit: Optional[str] = Query(None, pattern="^(s|ms|us|ns)$", description="numeric time's unit (default s)"),
                   window: Optional[str] = Query(None, max_length=60, description="START:END seconds from the first sample"),
@@ -136,7 +138,7 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
     parse_window(window)
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,
                "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold,
-               "time_unit": time_unit, "window": window, "sample_rate": sample_rate}
+               "time_unit": time_unit, "window": window, "sample_rate": sample_rate, "joint": joint}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
     if svc.analysis_pool is None:
         from api.analysis_worker import AnalysisWorker

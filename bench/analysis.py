@@ -163,6 +163,7 @@ class Analysis:
                           **({"turns_unwrapped": r["turns_unwrapped"]} if "turns_unwrapped" in r else {}),
                           **({"time_counter": r["time_counter"]} if "time_counter" in r else {}),
                           **({"own_times": r["own_times"]} if "own_times" in r else {}),
+                          **({"joint": r["joint"]["label"]} if "joint" in r else {}),
                           # what the bytes came wrapped in (bench.containers), a position integrated
                           # (bench.position_from_velocity), times from a rate (bench.sample_rate)
                           **{k: r[k] for k in ("container", "member", "encoding", "truncated_lines", "position_from",

@@ -171,6 +171,7 @@ def _inertia_option(text: str | None) -> float | str | None:
 def analyze(
     file: Path = typer.Argument(..., help="record: CSV (any delimiter; # metadata lines), Parquet or MATLAB .mat, any of them compressed (gzip, bzip2, xz, zstd) or zipped"),
     columns: Optional[str] = typer.Option(None, help="map the file's columns: t=NAME,tau=NAME,q=NAME[,qd=NAME]; NAME@TIME: a column with a time column of its own"),
+    joint: Optional[str] = typer.Option(None, help="a log of several joints: this joint's columns, by its number or name as the column names hold it (q3, position[3], /joint_states/panda_joint4/effort)"),
     inertia: Optional[str] = typer.Option(None, help="M_jj [SI]; overrides the metadata; 0: tau is the friction; estimate: read it off the record"),
     joint_type: Optional[str] = typer.Option(None, help="revolute or prismatic (overrides the metadata)"),
     time_unit: Optional[str] = typer.Option(None, help="s, ms, us or ns (numeric time; default s), or K*UNIT (25*ns: 40 MHz ticks)"),
@@ -194,7 +195,7 @@ def analyze(
         inertia = _inertia_option(inertia)
         rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
                           torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold,
-                          time_unit=time_unit, window=window, sample_rate=sample_rate)
+                          time_unit=time_unit, window=window, sample_rate=sample_rate, joint=joint)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
         result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))

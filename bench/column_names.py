@@ -36,8 +36,22 @@ _NOT_A_SUFFIX = {"q": {"m"}}
 
 
 def normalised(name: str) -> str:
-    """"Position actual value [inc]" -> "position_actual_value"."""
-    return _SEPARATORS.sub("_", split_unit(str(name))[0].strip()).lower()
+    """"Position actual value [inc]" -> "position_actual_value"; a path's last part
+    ("/joint_states/joint3/effort", PlotJuggler's) and without a logger's leading marks
+    ("%time" of rostopic, "__time" of PlotJuggler)."""
+    bare = split_unit(str(name))[0].strip()
+    parts = [p for p in bare.split("/") if p.strip()]
+    bare = parts[-1] if parts else bare
+    return _SEPARATORS.sub("_", bare.strip(" %_")).lower()
+
+
+def _forms(name: str) -> tuple[str, ...]:
+    """The names a column answers to: its own, and its last dotted part ("field.position"
+    of rostopic is a position, "field.header.stamp" a stamp)."""
+    full = normalised(name)
+    bare = split_unit(str(name))[0].strip()
+    last = normalised(bare.rsplit(".", 1)[1]) if "." in bare.split("/")[-1] else full
+    return (full, last) if last != full else (full,)
 
 
 # a velocity's unit after an underscore ("dq_rad_s", "velocity_deg_per_s", "speed_rpm"): only
@@ -60,28 +74,58 @@ def suffix_unit(name: str, role: str) -> str | None:
     return unit if factor_of(unit, known) else None
 
 
-def default_mapping(names: list[str], roles, required) -> tuple[dict, dict]:
-    """With no --columns: each role's column by its own name or its name with a unit ("t [s]",
-    "q (deg)"), else by the one column named as loggers name it (``NAMES``); a required role
-    with no column keeps its name (the reader says it is missing).  Returns the mapping and
-    the roles taken by a logger's name {role: column}."""
+def _stamp_first(hits: list[str]) -> list[str]:
+    # rostopic writes when it received a message (%time) beside when it was sampled
+    # (field.header.stamp): the sample's own time is the one to resample on
+    stamps = [n for n in hits if normalised(n).endswith("header_stamp")]
+    return stamps if len(stamps) == 1 else hits
+
+
+def _match(names: list[str], roles, taken: set) -> tuple[dict, dict]:
+    """Each role's column among ``names``: by its own name or its name with a unit ("t [s]",
+    "q (deg)"), else by the one column named as loggers name it (``NAMES``).  Returns the
+    roles found and those of them found by a logger's name."""
     out, guessed = {}, {}
     split = {n: split_unit(n) for n in names}
-    taken = set()
     for role in roles:
-        hits = [n for n, (bare, unit) in split.items() if n == role or (unit and bare == role)]
+        hits = [n for n, (bare, unit) in split.items() if n not in taken and (n == role or (unit and bare == role))]
         if hits:
-            out[role] = role if role in names else hits[0]
+            out[role] = role if role in hits else hits[0]
             taken.add(out[role])
     for role in roles:
         if role in out:
             continue
-        hits = [n for n in names if n not in taken and normalised(n) in NAMES.get(role, ())]
+        hits = [n for n in names if n not in taken and set(_forms(n)) & set(NAMES.get(role, ()))]
         if not hits:        # "q_rad", "time_s": a name and its unit after an underscore
             hits = [n for n in names if n not in taken and (u := suffix_unit(n, role))
                     and normalised(n[:-len(u) - 1]) in (role, *NAMES.get(role, ()))]
+        if role == "t" and len(hits) > 1:
+            hits = _stamp_first(hits)
         if len(hits) == 1:
             out[role] = guessed[role] = hits[0]
-        elif role in required:
-            out[role] = role
+            taken.add(hits[0])
+        elif hits:
+            taken.update(hits)      # not one column: left to the user, not to a wider search
     return out, guessed
+
+
+def default_mapping(names: list[str], roles, required, joint: str | None = None) -> tuple[dict, dict, dict]:
+    """With no --columns: each role's column (``_match``).  With ``joint``, a log of several
+    joints: among that joint's columns first (``bench.joint_columns``), then among the rest
+    for the roles they lack (the shared time).  A required role with no column keeps its name
+    (the reader says it is missing).  Returns the mapping, the roles taken by a logger's name
+    among the shared columns {role: column}, and the roles taken from the joint's columns."""
+    out, guessed, of_joint = {}, {}, {}
+    taken: set = set()
+    if joint is not None:
+        from bench.joint_columns import joint_columns
+        renamed = joint_columns(names, joint)
+        found, _ = _match(list(renamed), roles, set())
+        out = of_joint = {r: renamed[c] for r, c in found.items()}
+        taken = set(renamed.values())
+        names = [n for n in names if n not in taken]
+    found, guessed = _match(names, [r for r in roles if r not in out], taken)
+    out = {**out, **found}
+    for role in required:
+        out.setdefault(role, role)
+    return {r: out[r] for r in roles if r in out}, guessed, dict(of_joint)

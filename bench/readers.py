@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import column_names, header_units, own_times, position_from_velocity, split_stamps
+from bench import column_names, header_units, joint_columns, own_times, position_from_velocity, split_stamps
 from bench.coarse_time import spread
 from bench.containers import strip_suffix, unwrap
 from bench.counters import unwrap_counter
@@ -72,11 +72,13 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 joint_type: str | None = None, position_unit: str | None = None,
                 torque_unit: str | None = None, inertia: float | None = None,
                 torque_hold: str | None = None, time_unit: str | None = None,
-                window: str | None = None, sample_rate: float | None = None) -> Record:
+                window: str | None = None, sample_rate: float | None = None,
+                joint: str | None = None) -> Record:
     """Read, map, convert, resample and validate a record.  ``source``: a path, bytes or a
     text stream.  ``window``: "START:END", seconds from the first sample (either may be
     left out), the part of a long log to analyse.  ``sample_rate`` [Hz]: the rows' rate, for
-    a file without a time column (``bench.sample_rate``)."""
+    a file without a time column (``bench.sample_rate``).  ``joint``: the label of the joint
+    to read from a log of several (``bench.joint_columns``)."""
     span = parse_window(window)
     raw, name = _load(source, name)
     raw, name, wrapped = unwrap(raw, name)      # gzip, xz, zstd, a zip of one (bench.containers)
@@ -84,10 +86,13 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
     fmt = _format(raw, name)
     mapping = parse_columns(columns) if isinstance(columns, str) or columns is None else dict(columns)
+    if joint is not None and mapping is not None:
+        raise InputError("--joint picks a joint's columns by their names; with --columns give the "
+                         "columns' full names instead, not both")
     units_row: dict | None = None
     if fmt == "parquet":
         table, meta = _parquet(raw, name)
-        trace = _trace_record(table, mapping, name)
+        trace = _trace_record(table, mapping, name, joint)
         if trace is not None:
             return _finish(trace, name, fmt, opts, span, wrapped)
     elif fmt == "mat":
@@ -103,9 +108,14 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     units_row = units_row or {}
     explicit = mapping is not None
     names = _names(table)
-    by_name = {}
+    by_name, of_joint = {}, {}
     if mapping is None:         # roles by their own names or as loggers name them (bench.column_names)
-        mapping, by_name = column_names.default_mapping(names, ROLES, REQUIRED)
+        mapping, by_name, of_joint = column_names.default_mapping(names, ROLES, REQUIRED, joint)
+        by_name = {**of_joint, **by_name}      # a joint's columns were found by their names too
+        if joint is None and not (mapping["tau"] in names and {mapping["q"], mapping.get("qd")} & set(names)) \
+                and len(joints := joint_columns.labels_in(names)) > 1:
+            raise InputError(f"{name}: a log of several joints ({', '.join(joints)}): choose one with "
+                             f"--joint N, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
     if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):
         mapping["t"] = stamp     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
@@ -167,6 +177,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         rec.reading["velocity_unit"] = velocity_unit
     if by_name := {r: c for r, c in by_name.items() if mapping.get(r) == c}:
         rec.reading["columns_by_name"] = by_name
+    if joint is not None:
+        rec.reading["joint"] = {"label": str(joint).strip(), "columns": of_joint}
     if own:
         rec.reading["own_times"] = own
     return _finish(rec, name, fmt, opts, span, wrapped)
@@ -254,7 +266,7 @@ def _parquet(raw: bytes, name: str):
     return table, meta
 
 
-def _trace_record(table, mapping: dict | None, name: str) -> Record | None:
+def _trace_record(table, mapping: dict | None, name: str, joint: str | None = None) -> Record | None:
     """The project's own run traces (bench.traces): columns t, tau_<id>, g_<id>, q_<id>,
     v_<id>, segment.  Without a mapping (one joint) or with tau=tau_<id>, q=q_<id>, read
     as the trace exporter does: the host's gravity model g_<id> is taken off the torque."""
@@ -263,10 +275,14 @@ def _trace_record(table, mapping: dict | None, name: str) -> Record | None:
     if "segment" not in names or "t" not in names:
         return None
     joints = [n[2:] for n in names if n.startswith("q_")]
-    if mapping is None:
+    if mapping is None and joint is not None:
+        if str(joint).strip() not in joints:
+            raise InputError(f"{name}: --joint {joint}: the run trace holds joints {', '.join(joints)}")
+        jid = str(joint).strip()
+    elif mapping is None:
         if len(joints) != 1:
             raise InputError(f"{name}: a run trace of joints {', '.join(joints)}: choose one with "
-                             f"--columns t=t,tau=tau_<joint>,q=q_<joint>")
+                             f"--joint <joint>")
         jid = joints[0]
     else:
         jid = mapping["q"][2:] if mapping["q"].startswith("q_") else None

@@ -144,7 +144,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         aside = velocity_from.endswith(f"{SET_ASIDE})")     # a velocity in another unit
         taken = ", ".join(f"{c!r} as {WHAT.get(role, 'time')}" for role, c in r["columns_by_name"].items()
                           if not (aside and role == "qd"))
-        out.append(BY_NAME_WARNING.format(taken=taken))
+        of_joint = f"joint {r['joint']['label']}'s columns " if r.get("joint") else ""
+        out.append(BY_NAME_WARNING.format(taken=of_joint + taken))
         if aside:
             out.append(f"the velocity was taken from the position: {velocity_from[3:-1]}")
     if r.get("preamble_lines"):

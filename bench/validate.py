@@ -98,6 +98,15 @@ MAX_ANALYSED = 4_000_000
 RECORD_BOUNDS = {"step": (1e-7, 0.2), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "inertia": (1e-9, 1e12)}
 
 
+def _time_unit_hint(step: float) -> str:
+    """The time unit that makes a too long step a logger's (100 kHz to 5 Hz), as a hint: a
+    1e6 "s" step is a 1 ms step counted in ns (rostopic's %time)."""
+    for unit, k in (("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
+        if 1e-5 <= step * k <= RECORD_BOUNDS["step"][1]:
+            return f" (is t in ms, us or ns? in {unit} it is a {step * k * 1e3:.3g} ms step: --time-unit {unit})"
+    return " (is t in ms, us or ns? give the time unit)"
+
+
 def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
                       with_inertia: bool = True) -> None:
     """Finite columns within ``RECORD_BOUNDS``: the time step, the torque's largest magnitude,
@@ -117,7 +126,7 @@ def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
     if len(rec.t) > 1:
         step = float(np.median(np.diff(rec.t)))
         if not lo <= step <= hi:
-            hint = " (is t in ms, us or ns? give the time unit)" if step > hi else ""
+            hint = _time_unit_hint(step) if step > hi else ""
             raise InputError(f"{name}: sample step {step:.3g} s is outside {lo:g}..{hi:g} s{hint}")
     lo, hi = RECORD_BOUNDS["tau"]
     peak = float(np.max(np.abs(rec.tau)))

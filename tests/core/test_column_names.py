@@ -57,7 +57,7 @@ def test_drive_object_names_with_units_are_read_in_their_units(rec):
 
 
 def test_a_role_named_by_its_own_name_wins_and_is_not_said(rec):
-    mapping, by_name = default_mapping(["t", "tau", "q", "position", "velocity"], ROLES, REQUIRED)
+    mapping, by_name, _ = default_mapping(["t", "tau", "q", "position", "velocity"], ROLES, REQUIRED)
     assert mapping == {"t": "t", "tau": "tau", "q": "q", "qd": "velocity"} and by_name == {"qd": "velocity"}
 
 
@@ -107,7 +107,7 @@ def test_a_unit_after_an_underscore_is_read_mapped_or_not(rec):
     mapped = read_record(raw.replace(b"q_deg", b"joint_angle_deg", 1), name="lab.csv", inertia=30.0,
                          columns="t=t_s,tau=tau_Nm,q=joint_angle_deg")
     np.testing.assert_allclose(mapped.q, rec.q, atol=1e-8)
-    mapping, _ = default_mapping(["t", "tau", "q_m", "q_l"], ROLES, REQUIRED)
+    mapping, _, _ = default_mapping(["t", "tau", "q_m", "q_l"], ROLES, REQUIRED)
     assert mapping["q"] == "q"          # neither taken: the reader then says q is missing
 
 
