@@ -74,11 +74,10 @@ def suffix_unit(name: str, role: str) -> str | None:
     return unit if factor_of(unit, known) else None
 
 
-def _stamp_first(hits: list[str]) -> list[str]:
+def _stamp_first(names: list[str], taken: set) -> list[str]:
     # rostopic writes when it received a message (%time) beside when it was sampled
     # (field.header.stamp): the sample's own time is the one to resample on
-    stamps = [n for n in hits if normalised(n).endswith("header_stamp")]
-    return stamps if len(stamps) == 1 else hits
+    return [n for n in names if n not in taken and normalised(n).endswith("header_stamp")]
 
 
 def _match(names: list[str], roles, taken: set) -> tuple[dict, dict]:
@@ -95,12 +94,15 @@ def _match(names: list[str], roles, taken: set) -> tuple[dict, dict]:
     for role in roles:
         if role in out:
             continue
-        hits = [n for n in names if n not in taken and set(_forms(n)) & set(NAMES.get(role, ()))]
+        known = set(NAMES.get(role, ()))
+        hits = [n for n in names if n not in taken and _forms(n)[0] in known]
+        if not hits:        # by a dotted name's last part ("field.position"), when none by its whole
+            hits = [n for n in names if n not in taken and _forms(n)[-1] in known]
+        if role == "t" and len(stamps := _stamp_first(names, taken)) == 1:
+            hits = stamps
         if not hits:        # "q_rad", "time_s": a name and its unit after an underscore
             hits = [n for n in names if n not in taken and (u := suffix_unit(n, role))
                     and normalised(n[:-len(u) - 1]) in (role, *NAMES.get(role, ()))]
-        if role == "t" and len(hits) > 1:
-            hits = _stamp_first(hits)
         if len(hits) == 1:
             out[role] = guessed[role] = hits[0]
             taken.add(hits[0])

@@ -28,7 +28,8 @@ def split_unit(name: str) -> tuple[str, str | None]:
     when it looks like one (short, no blank: "[A]", "(counts)"), so that a unit we cannot
     convert is said."""
     m = _BRACKETED.search(name)
-    if m and (is_unit(m.group(1)) or (len(m.group(1)) <= 6 and " " not in m.group(1))):
+    # "q(2)", "position[3]": a matrix's column or a joint's index, not a unit
+    if m and not m.group(1).strip().isdigit() and (is_unit(m.group(1)) or (len(m.group(1)) <= 6 and " " not in m.group(1))):
         return name[:m.start(1)].rstrip(" [("), m.group(1).strip()
     m = _SLASHED.match(name)
     if m and is_unit(m.group(1)):

@@ -305,6 +305,18 @@ def test_analyze_a_logger_file_stating_its_units_with_a_wrapping_counter_and_ang
     assert r.status_code == 200, r.text
     assert r.json()["parameters"] == pytest.approx(si.json()["parameters"], rel=1e-5)
     assert any("'angle_deg' as position" in w for w in r.json()["warnings"]), r.json()["warnings"]
+    # a log of two joints: the one asked for (bench.joint_columns); without it, told to choose
+    several = f"# inertia: {spec.inertia}\nt [ms],tau1 [Nm],tau2 [Nm],q1 [deg],q2 [deg]\n" + "\n".join(
+        f"{a},0.5,{b:.9g},12.5,{c:.12g}" for a, b, c in zip(ms, rec.tau, angle))
+    got = {joint: operator.post("/analyze", content=several, headers={"content-type": "text/csv"},
+                                params={"diagnose": "false", **({"joint": joint} if joint else {})}, timeout=180)
+           for joint in ("2", None, "a b")}
+    assert [r.status_code for r in got.values()] == [200, 422, 422], [r.text for r in got.values()]
+    assert "a log of several joints (1, 2): choose one with --joint N" in got[None].json()["detail"]
+    assert all("\n" not in got[j].text for j in (None, "a b"))
+    r = got["2"]
+    assert r.json()["parameters"] == pytest.approx(si.json()["parameters"], rel=1e-5)
+    assert r.json()["input"]["joint"] == "2"
 
 
 @pytest.mark.parametrize("content, ctype, status", [
