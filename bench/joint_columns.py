@@ -68,7 +68,11 @@ def labels_in(names: list[str]) -> list[str]:
     seen = dict.fromkeys(m for n in names for m in re.findall(r"(?<![0-9])[0-9]{1,3}(?![0-9])", str(n)))
     out = []
     for label in list(seen)[:100]:
-        found, _ = _match(list(joint_columns(names, label)), ("tau", "q"), set())
+        try:
+            renamed = joint_columns(names, label)
+        except InputError:      # a number that is a whole name (a headerless file's "1")
+            continue
+        found, _ = _match(list(renamed), ("tau", "q"), set())
         if len(found) == 2:
             out.append(label)
     return out
