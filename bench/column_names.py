@@ -19,18 +19,20 @@ from bench.header_units import split_unit
 from bench.units import TABLES, factor_of
 
 # names in logs users have sent or that their tools write: ROS joint_states (position,
-# velocity, effort), Franka (dq, tau_J), CiA 402 object names, data-acquisition exports
+# velocity, effort), Franka (dq, tau_J), CiA 402 object names, data-acquisition exports, UR's
+# RTDE recorder (actual_q, actual_qd; not actual_current, in amperes, nor target_*, commands)
 NAMES = {
     "t": ("time", "timestamp", "time_stamp", "stamp", "times", "elapsed_time"),
     "q": ("position", "pos", "angle", "theta", "joint_position", "joint_angle", "actual_position",
-          "position_actual_value", "measured_position", "q_measured", "q_meas"),
+          "position_actual_value", "measured_position", "q_measured", "q_meas", "actual_q"),
     "qd": ("velocity", "vel", "speed", "dq", "qdot", "q_dot", "omega", "joint_velocity",
-           "actual_velocity", "velocity_actual_value", "measured_velocity", "angular_velocity"),
+           "actual_velocity", "velocity_actual_value", "measured_velocity", "angular_velocity", "actual_qd"),
     "tau": ("torque", "effort", "force", "tau_j", "tau_meas", "tau_measured", "measured_torque",
             "joint_torque", "actual_torque", "torque_actual_value", "friction", "friction_torque",
-            "tau_f"),
+            "tau_f", "actual_current_as_torque"),
 }
 _SEPARATORS = re.compile(r"[\s.\-]+")
+_CAMEL = re.compile(r"(?<=[a-z])(?=[A-Z])")
 # "q_m" is a motor's position as often as one in metres, so a bare "_m" says no unit
 _NOT_A_SUFFIX = {"q": {"m"}}
 
@@ -42,7 +44,8 @@ def normalised(name: str) -> str:
     bare = split_unit(str(name))[0].strip()
     parts = [p for p in bare.split("/") if p.strip()]
     bare = parts[-1] if parts else bare
-    return _SEPARATORS.sub("_", bare.strip(" %_")).lower()
+    bare = _CAMEL.sub("_", bare.strip(" %_"))       # "MeasuredTorque", KUKA's and LabVIEW's
+    return _SEPARATORS.sub("_", bare).lower()
 
 
 def _forms(name: str) -> tuple[str, ...]:

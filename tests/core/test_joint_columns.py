@@ -160,3 +160,29 @@ def test_a_matlab_matrix_of_joints_gives_its_column_and_its_index_is_no_unit(rec
         with pytest.raises(InputError, match=r"a log of several joints \(1, 2, 3\): choose one with --joint N"):
             read_record(path, inertia=J4.inertia)
     assert split_unit("q(2)") == ("q(2)", None) and split_unit("q (deg)") == ("q", "deg")
+
+
+def test_a_ur_rtde_recording_and_camel_case_names(rec, tmp_path):
+    """UR's RTDE recorder (space-delimited; target_q beside actual_q; actual_current in
+    amperes is no torque) and a KUKA-like camelCase log (MeasuredTorque beside ExternalTorque)."""
+    kinds = ("target_q", "actual_q", "actual_qd", "actual_current", "actual_current_as_torque")
+    head = ["timestamp"] + [f"{k}_{i}" for k in kinds for i in range(6)]
+    rows = []
+    for t, qs, vs, xs in _rows(rec, 2, 6):
+        cur = [x / 12.0 for x in xs]
+        rows.append(" ".join(f"{a:.10g}" for a in [t] + [q + 0.01 for q in qs] + qs + vs + cur + xs))
+    p = tmp_path / "ur.csv"
+    p.write_text(" ".join(head) + "\n" + "\n".join(rows) + "\n")
+    res, doc = _analyze(p, "--joint", "2")
+    assert res.exit_code == 0, res.output
+    assert doc["input"]["columns"] == {"t": "timestamp", "tau": "actual_current_as_torque_2", "q": "actual_q_2",
+                                       "qd": "actual_qd_2"}
+    _same_friction(doc)
+    old = tmp_path / "ur_old.csv"       # a recording with the current only: no torque is guessed
+    old.write_text("\n".join(" ".join(ln.split()[:25]) for ln in p.read_text().splitlines()) + "\n")
+    res, _ = _analyze(old, "--joint", "2")
+    assert res.exit_code == 2 and "joint 2's columns (target_q_2, actual_q_2, actual_qd_2, actual_current_2) hold " \
+        "no torque" in " ".join(res.output.split()), res.output
+    mapping, _, _ = default_mapping(["Time", "JointPosition", "JointVelocity", "MeasuredTorque", "ExternalTorque"],
+                                    ROLES, REQUIRED)
+    assert mapping == {"t": "Time", "tau": "MeasuredTorque", "q": "JointPosition", "qd": "JointVelocity"}
