@@ -99,11 +99,10 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
         table, meta = _mat(raw, name)
         table.update({k: table[v] for k, v in own_times.signal_names(table).items()})
     else:
-        table, meta, fmt, units_row, encoding, preamble = read_text(raw, name)
+        table, meta, fmt, units_row, encoding, skipped = read_text(raw, name)
         if encoding != "utf-8":
             wrapped["encoding"] = encoding
-        if preamble:            # lines before the header (bench.text_table)
-            wrapped["preamble_lines"] = preamble
+        wrapped.update(skipped)     # lines before the header and after the rows (bench.text_table)
     text_row = units_row == {}          # a row of descriptions under the header, skipped
     units_row = units_row or {}
     explicit = mapping is not None

@@ -33,6 +33,8 @@ BY_NAME_WARNING = ("no column mapping was given: {taken} were taken by their nam
                    "--columns if another column is meant (a command beside a reading, say)")
 PREAMBLE_WARNING = ("{n} line(s) before the table, from {first!r}, were skipped as the export's "
                     "preamble (bench.text_table); check that the header read is the one meant")
+FOOTER_WARNING = ("{n} line(s) after the table, from {first!r}, were skipped as the export's "
+                  "footer or a last row cut short (bench.text_table)")
 TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor units: it was "
                     "skipped as a description row")
 # a guess, so said: a header's unit in another code page (a degree sign) could read wrong
@@ -151,6 +153,9 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
     if r.get("preamble_lines"):
         lines = r["preamble_lines"]
         out.append(PREAMBLE_WARNING.format(n=len(lines), first=lines[0][:60]))
+    if r.get("footer_lines"):
+        lines = r["footer_lines"]
+        out.append(FOOTER_WARNING.format(n=len(lines), first=lines[0][:60]))
     if r.get("text_row_skipped"):
         out.append(TEXT_ROW_WARNING)
     if r.get("position_from") == "qd":

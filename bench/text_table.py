@@ -16,7 +16,8 @@ from bench.records import split_metadata
 
 def read_text(raw: bytes, name: str):
     """Delimited text, parsed by Arrow's CSV reader (a 10-minute log in well under a second);
-    ``#`` metadata lines and blank lines are taken out first."""
+    ``#`` metadata lines and blank lines are taken out first, an export's lines before its
+    header and after its rows too (``skipped``: {"preamble_lines": [...], "footer_lines": [...]})."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     text, encoding = decode_text(raw, name)
@@ -49,6 +50,7 @@ def read_text(raw: bytes, name: str):
         nxt = body.find("\n", at)
         body = body[:at] + (body[nxt + 1:] if nxt >= 0 else "")
         second = _line(body, 1)
+    body, footer = _before_footer(body, len(header), sep if delim else None)
     decimal = "," if sep != "," and "," in second else "."
     try:
         table = pacsv.read_csv(
@@ -66,7 +68,8 @@ def read_text(raw: bytes, name: str):
         msg = msg.replace("CSV parse error: ", "").replace("Expected", "expected")[:160]
         raise InputError(f"{name}: {msg} (header has {len(header)} fields)") from None
     fmt = {None: "text (whitespace)", ",": "csv", ";": "csv (semicolon)", "\t": "csv (tab)"}[delim]
-    return table, meta, fmt, units_row, encoding, preamble
+    skipped = {k: v for k, v in (("preamble_lines", preamble), ("footer_lines", footer)) if v}
+    return table, meta, fmt, units_row, encoding, skipped
 
 
 # Lines a data-acquisition or scope export writes before its header ("Logger export",
@@ -100,6 +103,35 @@ def _after_preamble(body: str) -> tuple[str, list[str]]:
         return body, []
     at = sum(len(ln) + 1 for ln in lines[:head])      # the lines were split on "\n" alone
     return body[at:], [ln.strip() for ln in lines[:head] if ln.strip()]
+
+
+# Lines an export writes after its rows ("End of data", "Samples;20000", a summary) and a last
+# row cut short by a logger that died mid-write were refused as rows of the wrong length, and
+# the whole record with them.  They are skipped and said when the rows before them are whole
+# rows of the table; more than a few such lines is no footer, and Arrow's refusal stands.
+FOOTER_LINES = 20
+
+
+def _before_footer(body: str, width: int, sep: str | None) -> tuple[str, list[str]]:
+    """``body`` without the lines after its last whole rows, and those lines (empty: none)."""
+    end = len(body.rstrip())
+    lines = body[max(0, end - 100_000):end].rsplit("\n", FOOTER_LINES + DATA_RUN)[1:]
+
+    def row(line):
+        f = _fields(line.strip(), sep) if sep else line.split()
+        return f if any(f) else None
+
+    fields = [row(ln) for ln in lines]
+    k = 0       # footer lines, from the end: a line of text, or a last row cut short
+    while k < len(lines) and fields[-1 - k] is not None and not (
+            len(fields[-1 - k]) == width and _data_like(fields[-1 - k])):
+        k += 1
+    whole = fields[len(fields) - k - DATA_RUN:len(fields) - k]
+    if k == 0 or k > FOOTER_LINES or len(whole) < DATA_RUN or \
+            not all(f is not None and len(f) == width and _data_like(f) for f in whole):
+        return body, []
+    cut = end - sum(len(ln) + 1 for ln in lines[-k:])
+    return body[:cut + 1], [ln.strip() if sep else " ".join(ln.split()) for ln in lines[-k:]]
 
 
 def _split(line: str) -> list[str]:

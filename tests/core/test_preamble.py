@@ -1,10 +1,11 @@
 """Lines a data-acquisition or scope export writes before its header (bench.text_table): they
 were refused as rows of the wrong length; now skipped, said, and the table read as without
-them.  Fresh seed 10240 (j3, 10 s)."""
+them; so are the lines an export writes after its rows.  Fresh seed 10240 (j3, 10 s)."""
 import numpy as np
 import pytest
 
 from bench.analysis import analyze_record
+from bench.errors import InputError
 from bench.readers import read_record
 from bench.text_table import _after_preamble
 from virtual_drives.joint import simulate_record
@@ -45,3 +46,28 @@ def test_tables_without_a_preamble_are_read_as_they_were(table):
 def test_a_preamble_then_a_blank_line_then_rows_is_a_table_without_a_header(table):
     _, rows = table
     assert _after_preamble("Scope export\nRate: 1000\n\n" + rows) == (rows, ["Scope export", "Rate: 1000"])
+
+
+@pytest.mark.parametrize("footer,sep,kept", [
+    ("End of data\nSamples,10001\n", "\n", ["End of data", "Samples,10001"]),   # an export's summary
+    ("9.999500,0.5", "\n", ["9.999500,0.5"]),                                 # a last row cut short
+    ("Stopped by user\n\n\n", "\r\n", ["Stopped by user"]),                   # CRLF, blank lines after
+])
+def test_lines_after_the_rows_are_skipped_and_said(table, footer, sep, kept):
+    rec, rows = table
+    text = ("t,tau,q\n" + rows + footer).replace("\n", sep)
+    got = read_record(text.encode(), name="daq.csv", inertia=30.0)
+    np.testing.assert_allclose(got.q, rec.q, rtol=1e-9, atol=1e-12)
+    assert got.reading["footer_lines"] == kept
+    said = [w for w in analyze_record(got, diagnose_effects=False).report()["warnings"] if "after the table" in w]
+    assert len(said) == 1 and said[0].startswith(f"{len(kept)} line(s) after the table"), said
+
+
+@pytest.mark.parametrize("what,text", [
+    ("a bad row among the rows", lambda rows: "t,tau,q\n" + rows.replace("\n", "\nx,y\n", 1)),
+    ("more lines than a footer", lambda rows: "t,tau,q\n" + rows + "note\n" * 21),
+])
+def test_what_is_no_footer_is_still_refused(table, what, text):
+    _, rows = table
+    with pytest.raises(InputError, match=r"expected 3 columns, got (1|2)"):
+        read_record(text(rows).encode(), name="daq.csv", inertia=30.0)
