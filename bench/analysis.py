@@ -32,7 +32,7 @@ from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.slow_stream import filled_forward
-from bench import load_torque, structure_spread
+from bench import load_torque, structure_spread, undetermined_fit
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
@@ -115,6 +115,7 @@ class Analysis:
                                     if data.inertia > 0 else None)
         if doc["unexplained"]["structured"]:
             structure_spread.widened(doc, *self.structure_spread(doc["uncertainty"]))
+        undetermined_fit.told(doc, 1.0 / data.c.dt, data.c.cutoff)   # a fit run off is not physics
         return doc
 
     def structure_spread(self, se: dict) -> tuple[dict, list]:
