@@ -115,7 +115,7 @@ class Analysis:
                                     if data.inertia > 0 else None)
         if doc["unexplained"]["structured"]:
             structure_spread.widened(doc, *self.structure_spread(doc["uncertainty"]))
-        undetermined_fit.told(doc, 1.0 / data.c.dt, data.c.cutoff)   # a fit run off is not physics
+        undetermined_fit.told(doc, data.friction, 1.0 / data.c.dt, data.c.cutoff)   # a fit run off is not physics
         return doc
 
     def structure_spread(self, se: dict) -> tuple[dict, list]:
