@@ -76,3 +76,21 @@ def labels_in(names: list[str]) -> list[str]:
         if len(found) == 2:
             out.append(label)
     return out
+
+
+def refuse_unfound(mapping: dict, names: list[str], joint: str | None, name: str) -> None:
+    """Refuse a mapping with no torque or no position (nor velocity) among ``names`` in the
+    words that help: a log of several joints read without ``--joint`` is told its joints; a
+    joint whose columns lack one is told which columns it has.  Otherwise the reader's own
+    "missing column" refusal follows."""
+    what = {"tau": "torque", "q": "position"}
+    lacking = [r for r in what if mapping[r] not in names and not (r == "q" and mapping.get("qd") in names)]
+    if not lacking:
+        return
+    if joint is None and len(joints := labels_in(names)) > 1:
+        raise InputError(f"{name}: a log of several joints ({', '.join(joints)}): choose one with "
+                         f"--joint N, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
+    if joint is not None:
+        own = ", ".join(map(str, joint_columns(names, joint).values()))
+        raise InputError(f"{name}: joint {joint}'s columns ({own}) hold no {' and no '.join(what[r] for r in lacking)} "
+                         f"by a name this reader knows; map them with --columns t=NAME,tau=NAME,q=NAME")

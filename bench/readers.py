@@ -111,14 +111,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     if mapping is None:         # roles by their own names or as loggers name them (bench.column_names)
         mapping, by_name, of_joint = column_names.default_mapping(names, ROLES, REQUIRED, joint)
         by_name = {**of_joint, **by_name}      # a joint's columns were found by their names too
-        lacking = [r for r in ("tau", "q") if mapping[r] not in names and not (r == "q" and mapping.get("qd") in names)]
-        if joint is None and lacking and len(joints := joint_columns.labels_in(names)) > 1:
-            raise InputError(f"{name}: a log of several joints ({', '.join(joints)}): choose one with "
-                             f"--joint N, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
-        if joint is not None and lacking:
-            own = ", ".join(map(str, joint_columns.joint_columns(names, joint).values()))
-            raise InputError(f"{name}: joint {joint}'s columns ({own}) hold no {' and no '.join({'tau': 'torque', 'q': 'position'}[r] for r in lacking)} by a "
-                             f"name this reader knows; map them with --columns t=NAME,tau=NAME,q=NAME")
+        joint_columns.refuse_unfound(mapping, names, joint, name)    # which joint, or what it lacks
     if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):
         mapping["t"] = stamp     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)

@@ -186,3 +186,26 @@ def test_a_ur_rtde_recording_and_camel_case_names(rec, tmp_path):
     mapping, _, _ = default_mapping(["Time", "JointPosition", "JointVelocity", "MeasuredTorque", "ExternalTorque"],
                                     ROLES, REQUIRED)
     assert mapping == {"t": "Time", "tau": "MeasuredTorque", "q": "JointPosition", "qd": "JointVelocity"}
+
+
+def test_a_run_trace_of_two_joints_gives_the_one_asked_for(rec):
+    """The project's own run traces (bench.traces) hold every joint: --joint picks one, as
+    tau=tau_<id>,q=q_<id> did; without it the refusal says to."""
+    import io
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from bench.readers import read_record
+    n = len(rec.t)
+    table = pa.table({"t": rec.t, "segment": ["sine"] * n, "tau_j1": np.full(n, 2.0), "g_j1": np.zeros(n),
+                      "q_j1": np.full(n, 0.3), "tau_j4": rec.tau + 1.5, "g_j4": np.full(n, 1.5), "q_j4": rec.q})
+    buf = io.BytesIO()
+    pq.write_table(table, buf)
+    got = read_record(buf.getvalue(), name="trace.parquet", inertia=J4.inertia, joint="j4")
+    np.testing.assert_allclose(got.tau, rec.tau, atol=1e-9)      # the host's gravity taken off
+    np.testing.assert_allclose(got.q, rec.q)
+    with pytest.raises(InputError, match="a run trace of joints j1, j4: choose one with --joint <joint>"):
+        read_record(buf.getvalue(), name="trace.parquet", inertia=J4.inertia)
+    with pytest.raises(InputError, match="--joint j2: the run trace holds joints j1, j4"):
+        read_record(buf.getvalue(), name="trace.parquet", inertia=J4.inertia, joint="j2")
