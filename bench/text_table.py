@@ -114,7 +114,9 @@ FOOTER_LINES = 20
 
 def _before_footer(body: str, width: int, sep: str | None) -> tuple[str, list[str]]:
     """``body`` without the lines after its last whole rows, and those lines (empty: none)."""
-    end = len(body.rstrip())
+    end = len(body)
+    while end and body[end - 1].isspace():      # not body.rstrip(): a copy of a long log
+        end -= 1
     lines = body[max(0, end - 100_000):end].rsplit("\n", FOOTER_LINES + DATA_RUN)[1:]
 
     def row(line):
