@@ -101,7 +101,8 @@ RECORD_BOUNDS = {"step": (1e-7, 0.2), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "in
 def _time_unit_hint(step: float) -> str:
     """The time unit that makes a too long step a logger's (100 kHz to 5 Hz), as a hint: a
     1e6 "s" step is a 1 ms step counted in ns (rostopic's %time)."""
-    for unit, k in (("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
+    from bench.units import TIME_UNITS
+    for unit, k in TIME_UNITS.items():     # s first: never within, the step being too long
         if 1e-5 <= step * k <= RECORD_BOUNDS["step"][1]:
             return f" (is t in ms, us or ns? in {unit} it is a {step * k * 1e3:.3g} ms step: --time-unit {unit})"
     return " (is t in ms, us or ns? give the time unit)"
