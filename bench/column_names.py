@@ -83,7 +83,7 @@ def _stamp_first(names: list[str], taken: set) -> list[str]:
     return [n for n in names if n not in taken and normalised(n).endswith("header_stamp")]
 
 
-def _match(names: list[str], roles, taken: set) -> tuple[dict, dict]:
+def find_roles(names: list[str], roles, taken: set) -> tuple[dict, dict]:
     """Each role's column among ``names``: by its own name or its name with a unit ("t [s]",
     "q (deg)"), else by the one column named as loggers name it (``NAMES``).  Returns the
     roles found and those of them found by a logger's name."""
@@ -115,7 +115,7 @@ def _match(names: list[str], roles, taken: set) -> tuple[dict, dict]:
 
 
 def default_mapping(names: list[str], roles, required, joint: str | None = None) -> tuple[dict, dict, dict]:
-    """With no --columns: each role's column (``_match``).  With ``joint``, a log of several
+    """With no --columns: each role's column (``find_roles``).  With ``joint``, a log of several
     joints: among that joint's columns first (``bench.joint_columns``), then among the rest
     for the roles they lack (the shared time).  A required role with no column keeps its name
     (the reader says it is missing).  Returns the mapping, the roles taken by a logger's name
@@ -125,11 +125,11 @@ def default_mapping(names: list[str], roles, required, joint: str | None = None)
     if joint is not None:
         from bench.joint_columns import joint_columns
         renamed = joint_columns(names, joint)
-        found, _ = _match(list(renamed), roles, set())
+        found, _ = find_roles(list(renamed), roles, set())
         out = of_joint = {r: renamed[c] for r, c in found.items()}
         taken = set(renamed.values())
         names = [n for n in names if n not in taken]
-    found, guessed = _match(names, [r for r in roles if r not in out], taken)
+    found, guessed = find_roles(names, [r for r in roles if r not in out], taken)
     out = {**out, **found}
     for role in required:
         out.setdefault(role, role)

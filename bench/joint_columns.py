@@ -64,7 +64,7 @@ def joint_columns(names: list[str], label: str) -> dict[str, str]:
 def labels_in(names: list[str]) -> list[str]:
     """The numbers that pick a torque and a position out of ``names`` as ``--joint`` would:
     the joints of a log of several, named in the refusal of a file read without one."""
-    from bench.column_names import _match
+    from bench.column_names import find_roles
     seen = dict.fromkeys(m for n in names for m in re.findall(r"(?<![0-9])[0-9]{1,3}(?![0-9])", str(n)))
     out = []
     for label in list(seen)[:100]:
@@ -72,7 +72,7 @@ def labels_in(names: list[str]) -> list[str]:
             renamed = joint_columns(names, label)
         except InputError:      # a number that is a whole name (a headerless file's "1")
             continue
-        found, _ = _match(list(renamed), ("tau", "q"), set())
+        found, _ = find_roles(list(renamed), ("tau", "q"), set())
         if len(found) == 2:
             out.append(label)
     return out
