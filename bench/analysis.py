@@ -168,7 +168,7 @@ class Analysis:
                           # what the bytes came wrapped in (bench.containers), a position integrated
                           # (bench.position_from_velocity), times from a rate (bench.sample_rate)
                           **{k: r[k] for k in ("container", "member", "encoding", "truncated_lines", "position_from",
-                                               "sample_rate", "preamble_lines", "footer_lines") if k in r}},
+                                               "sample_rate", "preamble_lines", "footer_lines", "epoch_time") if k in r}},
                 "units": {"si": True, "conversions": r.get("units", {}),
                           **({"from_header": r["header_units"]["taken"]} if r.get("header_units") else {})},
                 "resampling": resampling}

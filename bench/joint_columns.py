@@ -62,19 +62,33 @@ def joint_columns(names: list[str], label: str) -> dict[str, str]:
 
 
 def labels_in(names: list[str]) -> list[str]:
-    """The numbers that pick a torque and a position out of ``names`` as ``--joint`` would:
-    the joints of a log of several, named in the refusal of a file read without one."""
+    """The labels that pick a torque and a position out of ``names`` as ``--joint`` would: the
+    joints of a log of several, named in the refusal of a file read without one.  Numbers
+    ("q3"); where none does, the folders of path-like names, a joint named by words alone
+    (PlotJuggler's ``/joint_states/shoulder_pan_joint/effort``), leaving out a folder that
+    holds another's columns (``joint_states``)."""
+    numbers = dict.fromkeys(m for n in names for m in re.findall(r"(?<![0-9])[0-9]{1,3}(?![0-9])", str(n)))
+    out = _picking(names, list(numbers)[:100])
+    if len(out) > 1:
+        return list(out)
+    folders = dict.fromkeys(p for n in names for p in str(n).split("/")[:-1]
+                            if re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-.]*", p))
+    out = _picking(names, list(folders)[:100])
+    return [a for a in out if not any(out[b] < out[a] for b in out)]
+
+
+def _picking(names: list[str], labels: list[str]) -> dict[str, set]:
+    """{label: its columns} for the ``labels`` whose columns hold a torque and a position."""
     from bench.column_names import find_roles
-    seen = dict.fromkeys(m for n in names for m in re.findall(r"(?<![0-9])[0-9]{1,3}(?![0-9])", str(n)))
-    out = []
-    for label in list(seen)[:100]:
+    out = {}
+    for label in labels:
         try:
             renamed = joint_columns(names, label)
         except InputError:      # a number that is a whole name (a headerless file's "1")
             continue
         found, _ = find_roles(list(renamed), ("tau", "q"), set())
         if len(found) == 2:
-            out.append(label)
+            out[label] = set(renamed.values())
     return out
 
 
@@ -89,7 +103,7 @@ def refuse_unfound(mapping: dict, names: list[str], joint: str | None, name: str
         return
     if joint is None and len(joints := labels_in(names)) > 1:
         raise InputError(f"{name}: a log of several joints ({', '.join(joints)}): choose one with "
-                         f"--joint N, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
+                         f"--joint {'N' if joints[0].isdigit() else 'NAME'}, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
     if joint is not None:
         own = ", ".join(map(str, joint_columns(names, joint).values()))
         raise InputError(f"{name}: joint {joint}'s columns ({own}) hold no {' and no '.join(what[r] for r in lacking)} "

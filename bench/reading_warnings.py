@@ -4,6 +4,8 @@ standstills cut, a torque read in coarse steps.  Each changes what the numbers m
 report says it first."""
 from __future__ import annotations
 
+from datetime import datetime, timezone
+
 from bench.containers import TRUNCATED_WARNING
 from bench.position_from_velocity import WARNING as POSITION_FROM_VELOCITY
 from bench.records import Record
@@ -40,6 +42,8 @@ TEXT_ROW_WARNING = ("the line under the header holds words, neither numbers nor 
 # a guess, so said: a header's unit in another code page (a degree sign) could read wrong
 CODE_PAGE_WARNING = ("the file is not UTF-8 text: it was read as Windows-1252 (a Western "
                      "Windows PC's); check that the header's units read as meant")
+EPOCH_WARNING = ("the time column counts {unit} since 1970 (from {start} UTC), as ROS stamps and many "
+                 "loggers do: it was read in {unit}; give --time-unit if it counts another unit")
 COUNTER_WARNING = ("the time column is a {bits}-bit counter that wraps ({wraps} times in the "
                    "record); it was unwrapped before the analysis")
 
@@ -126,6 +130,9 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(HELD_WARNING.format(n=len(held), s=sum(b - a for a, b in held)))
     if r.get("turns_unwrapped"):
         out.append(UNWRAPPED_WARNING.format(n=r["turns_unwrapped"]))
+    if r.get("epoch_time"):
+        start = datetime.fromtimestamp(r["epoch_time"]["start"], timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+        out.append(EPOCH_WARNING.format(unit=r["epoch_time"]["unit"], start=start))
     if r.get("time_counter"):
         out.append(COUNTER_WARNING.format(**r["time_counter"]))
     for col, ff in r.get("filled_forward", {}).items():

@@ -11,6 +11,7 @@ import numpy as np
 
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, Record
+from bench.validate import RECORD_BOUNDS
 
 POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi},
                   "prismatic": {"m": 1.0, "mm": 1e-3, "um": 1e-6}}
@@ -45,6 +46,26 @@ def factor_of(unit: str, known: dict) -> tuple[float, str] | None:
     m = _SCALED.match(u)
     if m and normalise(m.group(2)) in known and float(m.group(1)) > 0:
         return float(m.group(1)) * known[normalise(m.group(2))], u
+    return None
+
+
+# Seconds since 1970 a log can hold: 2001-09-09 (1e9 s) to 2099 (4.1e9 s).  Counted in ms, us
+# or ns the windows lie 1e3 apart and never overlap, and read in seconds such a count would lie
+# millennia ahead: the magnitude names the unit (ROS's and rostopic's ns stamps, a ms logger's)
+EPOCH_S = (1e9, 4.1e9)
+
+
+def epoch_unit(t) -> str | None:
+    """"ms", "us" or "ns" when every time in ``t`` is that unit counted since 1970 and the
+    median step in it is a logger's (``RECORD_BOUNDS``); else None."""
+    t = np.asarray(t, dtype=float)
+    if len(t) < 2 or not np.all(np.isfinite(t)):
+        return None
+    for unit in ("ms", "us", "ns"):
+        k = TIME_UNITS[unit]
+        if EPOCH_S[0] <= t.min() * k and t.max() * k <= EPOCH_S[1]:
+            lo, hi = RECORD_BOUNDS["step"]
+            return unit if lo <= float(np.median(np.diff(t))) * k <= hi else None
     return None
 
 

@@ -98,13 +98,14 @@ MAX_ANALYSED = 4_000_000
 RECORD_BOUNDS = {"step": (1e-7, 0.2), "tau": (1e-9, 1e12), "q": (1e-9, 1e6), "inertia": (1e-9, 1e12)}
 
 
-def _time_unit_hint(step: float) -> str:
+def _time_unit_hint(step: float, given: float = 1.0) -> str:
     """The time unit that makes a too long step a logger's (100 kHz to 5 Hz), as a hint: a
-    1e6 "s" step is a 1 ms step counted in ns (rostopic's %time)."""
+    1e6 "s" step is a 1 ms step counted in ns (rostopic's %time).  ``given``: the factor a
+    unit the user gave applied, so the hint reads the file's own numbers."""
     from bench.units import TIME_UNITS
     for unit, k in TIME_UNITS.items():     # s first: never within, the step being too long
-        if 1e-5 <= step * k <= RECORD_BOUNDS["step"][1]:
-            return f" (is t in ms, us or ns? in {unit} it is a {step * k * 1e3:.3g} ms step: --time-unit {unit})"
+        if 1e-5 <= step / given * k <= RECORD_BOUNDS["step"][1]:
+            return f" (is t in ms, us or ns? in {unit} it is a {step / given * k * 1e3:.3g} ms step: --time-unit {unit})"
     return " (is t in ms, us or ns? give the time unit)"
 
 
@@ -127,7 +128,8 @@ def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
     if len(rec.t) > 1:
         step = float(np.median(np.diff(rec.t)))
         if not lo <= step <= hi:
-            hint = _time_unit_hint(step) if step > hi else ""
+            given = rec.reading.get("units", {}).get("time", {}).get("factor", 1.0)
+            hint = _time_unit_hint(step, given) if step > hi else ""
             raise InputError(f"{name}: sample step {step:.3g} s is outside {lo:g}..{hi:g} s{hint}")
     lo, hi = RECORD_BOUNDS["tau"]
     peak = float(np.max(np.abs(rec.tau)))

@@ -4,6 +4,7 @@ Franka-like log, a `rostopic echo -p` export and PlotJuggler's CSV are read with
 and a log of several joints read without --joint is refused naming its joints.  Fresh seed
 10241 (j4, 20 s); the shapes were tried on j3 (seed 1960) before these tests were written."""
 import json
+from datetime import datetime, timezone
 
 import numpy as np
 import pytest
@@ -68,25 +69,38 @@ def test_a_franka_log_gives_the_joint_asked_for_and_names_its_joints_when_not_as
     assert "a log of several joints (0, 1, 2, 3, 4, 5, 6): choose one with --joint N" in res.output, res.output
 
 
-def test_a_rostopic_export_is_read_on_its_sample_stamps_told_its_time_unit(rec, tmp_path):
-    """`rostopic echo -p /joint_states`: %time (when received) and field.header.stamp (when
-    sampled), both in ns; the stamp is the time.  Without a time unit the refusal names ns."""
-    p = tmp_path / "joint_states.csv"
+def _rostopic(rec, path, start_ns: int):
+    """`rostopic echo -p /joint_states` of three joints, its stamps counting ns from ``start_ns``:
+    %time (when received) and field.header.stamp (when sampled)."""
     head = ("%time,field.header.seq,field.header.stamp,field.header.frame_id,field.name0,field.name1,field.name2,"
             "field.position0,field.position1,field.position2,field.velocity0,field.velocity1,field.velocity2,"
             "field.effort0,field.effort1,field.effort2")
     body = []
     for i, (t, qs, vs, xs) in enumerate(_rows(rec, 2, 3)):
-        ns = EPOCH * 10**9 + int(round(t * 1e9))
+        ns = start_ns + int(round(t * 1e9))
         body.append(f"{ns + 250_000 + 7_000 * (i % 5)},{i},{ns},base,a,b,c," + ",".join(f"{a:.10g}" for a in qs + vs + xs))
-    p.write_text(head + "\n" + "\n".join(body) + "\n")
-    res, _ = _analyze(p, "--joint", "2")
-    assert res.exit_code == 2 and "in ns it is a 1 ms step: --time-unit ns" in res.output, res.output
-    res, doc = _analyze(p, "--joint", "2", "--time-unit", "ns")
+    path.write_text(head + "\n" + "\n".join(body) + "\n")
+    return path
+
+
+def test_a_rostopic_export_is_read_on_its_sample_stamps_in_ns(rec, tmp_path):
+    """The stamp is the time, its unit (ns since 1970) read off its magnitude and told; with
+    the unit given nothing is guessed; the same counts from 0 name no date, and their refusal
+    names ns."""
+    p = _rostopic(rec, tmp_path / "joint_states.csv", EPOCH * 10**9)
+    res, doc = _analyze(p, "--joint", "2")
     assert res.exit_code == 0, res.output
     assert doc["input"]["columns"] == {"t": "field.header.stamp", "tau": "field.effort2",
                                        "q": "field.position2", "qd": "field.velocity2"}
+    assert doc["input"]["epoch_time"]["unit"] == "ns" and doc["units"]["conversions"]["time"]["from"] == "ns"
+    when = datetime.fromtimestamp(EPOCH, timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+    assert any(w.startswith(f"the time column counts ns since 1970 (from {when} UTC)") for w in doc["warnings"]), doc["warnings"]
     _same_friction(doc)
+    res, doc = _analyze(p, "--joint", "2", "--time-unit", "ns")
+    assert res.exit_code == 0 and "epoch_time" not in doc["input"], res.output
+    _same_friction(doc)
+    res, _ = _analyze(_rostopic(rec, tmp_path / "from_zero.csv", 0), "--joint", "2")
+    assert res.exit_code == 2 and "in ns it is a 1 ms step: --time-unit ns" in res.output, res.output
 
 
 def test_a_plotjuggler_export_of_one_joint_needs_no_mapping(rec, tmp_path):
@@ -108,6 +122,33 @@ def test_a_joint_by_its_name_or_number_among_paths(label):
     mapping, shared, of_joint = default_mapping(PJ, ROLES, REQUIRED, label)
     assert mapping == {"t": "__time", "tau": PJ[10], "q": PJ[11], "qd": PJ[12]}
     assert shared == {"t": "__time"} and set(of_joint) == {"tau", "q", "qd"}
+
+
+UR_PJ = ["__time"] + [f"/joint_states/{j}_joint/{k}" for j in ("shoulder_pan", "shoulder_lift", "elbow")
+                       for k in ("position", "velocity", "effort")]
+
+
+def test_joints_named_by_words_alone_are_listed_by_their_names():
+    """A UR's joint_states through PlotJuggler: no numbers, so the path's folders name the
+    joints; "joint_states", which holds them all, is not one of them."""
+    assert labels_in(UR_PJ) == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint"]
+    assert labels_in(PJ) == ["1", "2", "3", "4"]     # numbered: the numbers, not panda_joint1..4
+    mapping, _, _ = default_mapping(UR_PJ, ROLES, REQUIRED, "elbow_joint")
+    assert mapping == {"t": "__time", "q": UR_PJ[7], "qd": UR_PJ[8], "tau": UR_PJ[9]}
+
+
+def test_a_log_of_joints_named_by_words_is_refused_naming_them(rec, tmp_path):
+    p = tmp_path / "ur.csv"
+    p.write_text(",".join(UR_PJ) + "\n" + "\n".join(
+        f"{EPOCH + t:.6f}," + ",".join(f"{a:.10g}" for i in range(3) for a in (qs[i], vs[i], xs[i]))
+        for t, qs, vs, xs in _rows(rec, 1, 3)) + "\n")
+    res, _ = _analyze(p)
+    assert res.exit_code == 2
+    assert ("a log of several joints (shoulder_pan_joint, shoulder_lift_joint, elbow_joint): choose one "
+            "with --joint NAME") in res.output, res.output
+    res, doc = _analyze(p, "--joint", "shoulder_lift_joint")
+    assert res.exit_code == 0, res.output
+    _same_friction(doc)
 
 
 @pytest.mark.parametrize("names,label,want", [

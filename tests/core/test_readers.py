@@ -2,6 +2,7 @@
 other units, a PC logger's uneven timestamps with dropped samples, friction-torque records,
 and the residuals at the file's own timestamps.  Seeds 5000+ (fresh; tuning used 1000-1999)."""
 import json
+import re
 import subprocess
 import sys
 
@@ -190,9 +191,9 @@ def test_logger_file_end_to_end_with_residuals(tmp_path):
 
 
 def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
-    """Integer nanoseconds since the epoch (as ROS and many PC loggers write them): refused with
-    a hint without the time unit, analysed with --time-unit ns, and the residuals' t column is
-    the file's own integers, digit for digit (a float keeps only ~16 of their 19)."""
+    """Integer nanoseconds since the epoch (as ROS and many PC loggers write them): read in ns
+    by their magnitude and told, a unit the user gives still wins, and the residuals' t column
+    is the file's own integers, digit for digit (a float keeps only ~16 of their 19)."""
     spec, t1k, F, q_deg, _ = friction_log("j2", 5330, duration=14.0)
     t = logged(Record(t=t1k, tau=F, q=q_deg), 5331, drop=0.002)
     ticks = 1_764_190_000_000_000_000 + np.round(t * 1e9).astype(np.int64)
@@ -201,14 +202,18 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     path.write_text("stamp,friction,angle\n" + body)
     args = ("analyze", path, "--columns", "t=stamp,tau=friction,q=angle", "--inertia", "0",
             "--position-unit", "deg")
-    r = run(*args)
+    r = run(*args, "--time-unit", "us")
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
-    assert r.returncode == 2 and len(lines) == 1 and "is t in ms, us or ns?" in lines[0], r.stderr
+    assert r.returncode == 2 and len(lines) == 1 and re.search(r"in ns it is a [0-9.]+ ms step: --time-unit ns\)$",
+                                                                lines[0]), r.stderr
     out = tmp_path / "res.csv"
-    r = run(*args, "--time-unit", "ns", "--residuals", out, "--json", tmp_path / "o.json")
+    r = run(*args, "--residuals", out, "--json", tmp_path / "o.json")
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "o.json").read_text())
     assert doc["units"]["conversions"]["time"] == {"from": "ns", "to": "s", "factor": 1e-9}
+    assert doc["input"]["epoch_time"]["unit"] == "ns"
+    assert any(w.startswith("the time column counts ns since 1970 (from 2025-11-26 20:46:40 UTC)")
+               for w in doc["warnings"]), doc["warnings"]
     assert max(rel_errors(doc, spec).values()) < 0.05, rel_errors(doc, spec)
     written = [ln.split(",")[0] for ln in out.read_text().splitlines()[1:]]
     assert written == [str(k) for k in ticks]
@@ -216,6 +221,17 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     named = read_record(("stamp_ns,friction,angle\n" + body).encode(), name="ros.csv",
                         columns="t=stamp_ns,tau=friction,q=angle", inertia=0.0, position_unit="deg")
     assert named.reading["units"]["time"] == {"from": "ns", "to": "s", "factor": 1e-9}
+
+
+@pytest.mark.parametrize("t, unit", [
+    (1.7e9 + np.arange(5) * 1e-3, None),             # seconds since 1970: already seconds
+    (1.7e12 + np.arange(5), "ms"), (1.7e15 + np.arange(5) * 1e3, "us"), (1.7e18 + np.arange(5) * 1e6, "ns"),
+    (1.7e18 + np.arange(5) * 1e9, None),             # 1 s steps: no logger this tool reads
+    (np.arange(5) * 1e6, None),                      # ns from the logger's start: no date to go by
+    (5e12 + np.arange(5), None)])                    # ms from 1970 would be 2128
+def test_the_epoch_names_its_unit_only_by_a_date_and_a_loggers_step(t, unit):
+    from bench.units import epoch_unit
+    assert epoch_unit(t) == unit
 
 
 def test_clock_times_in_a_csv_and_a_parquet_read_as_seconds_from_the_first(tmp_path):
