@@ -3,8 +3,6 @@ add it and show the error fall.  ``analyze_record`` returns an ``Analysis`` that
 JSON contract, the PNG plots and a self-contained HTML report."""
 from __future__ import annotations
 
-import base64
-import html
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -18,15 +16,14 @@ from bench.clock_room import ClockRoom, placed_in_room
 from bench.coarse_time import spread
 from bench.diagnosis import ARTIFACT_RATIO, MIN_EXPLAINED_SIZE, Diagnosis, diagnose
 from bench.pruning import drop_absorbers
-from bench.effects.gear import friction_beyond_gear, friction_beyond_on, spring_beyond
-from bench.effects.joint_flexibility import searched_frequencies
-from bench.effects.periodic import PositionSeries
+from bench.effects.gear import friction_beyond_gear, friction_beyond_on
 from bench.errors import BenchError, InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS
 from bench.identify import Identification, identify, judged
 from bench.perfect_model import replay, torque_step
 from bench.measured_start import measured_start
 from bench.reading_warnings import reading_warnings, with_hint
+from bench.report_html import render_html
 from bench.predictability import assess_predictability
 from bench.records import Record
 from bench.resample import on_grid
@@ -35,7 +32,9 @@ from bench.slow_stream import filled_forward
 from bench import load_torque, structure_spread, undetermined_fit
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
-from bench.wide_band import MIN_SHARE, gear_settled, names_a_gear, names_a_mimic, wider_band, widened_warning
+from bench.gear_story import beyond_wins, gear_hysteresis_left, left_structured, mimic_without_gear, \
+    inertia_like_spring, position_series_credited
+from bench.wide_band import gear_settled, wider_band, widened_warning
 
 
 @dataclass
@@ -392,8 +391,8 @@ def _diagnose_from(ident: Identification, rec: Record, add, start, floor: float)
     # already with friction beyond the gear (the wide probe's retry), a second pass would
     # repeat the first exactly
     if add or friction_beyond_on() or not (
-            _gear_hysteresis_left(diag, data) or _position_series_credited(diag)
-            or _inertia_like_spring(diag)):
+            gear_hysteresis_left(diag, data) or position_series_credited(diag)
+            or inertia_like_spring(diag)):
         return diag
     # a structure left that follows the travel since the last reversal, as a gear's does, one
     # taken up by a position series, or an inertia error (or gravity) beside a spring's
@@ -401,42 +400,10 @@ def _diagnose_from(ident: Identification, rec: Record, add, start, floor: float)
     # that only if it leaves nothing and predicts the held-out motion better
     with friction_beyond_gear():
         second = run()
-    if _beyond_wins(second, diag, data):
+    if beyond_wins(second, diag, data):
         return second
     diag.beyond = second
     return diag
-
-
-def _inertia_like_spring(diag: Diagnosis) -> bool:
-    """Was an inertia error (or gravity) credited, and does a gear spring with friction beyond
-    it take a clear share of what is left (``gear.spring_beyond``, below the band as the
-    flexibility's variants are)?  Friction beyond a spring acts like an inertia error under a
-    sine, plus the ringing an inertia error leaves (j2, independent simulator, 30 % of the
-    friction beyond a 12 Hz spring, tuning seed 1986: told as an inertia error 11 % low,
-    nothing left; j4, 40 % beyond 11 Hz, seed 1970: as gravity)."""
-    if not names_a_mimic(diag):
-        return False
-    ctx = diag.contexts[-1]
-    freqs = searched_frequencies(ctx.data.c)
-    return len(freqs) > 0 and spring_beyond(ctx, freqs)[0] >= MIN_SHARE
-
-
-def _mimic_without_gear(diag: Diagnosis) -> bool:
-    """Was an inertia error or gravity credited, and no gear?"""
-    return names_a_mimic(diag) and not names_a_gear(diag)
-
-
-def _beyond_wins(second: Diagnosis, first: Diagnosis, data) -> bool:
-    """Is the pass with friction beyond the gear kept over the one without it?  Only when it
-    leaves nothing structured and predicts the held-out motion better."""
-    return not _left_structured(second, data) and second.final_rms < first.final_rms
-
-
-def _left_structured(diag: Diagnosis, data) -> bool:
-    """Does the verdict call what the final model leaves structured?"""
-    p, floor = diag.final_predictability, diag.noise_floor
-    return p is None or structured(p, data.coulomb, diag.replay_rms,
-                                   diag.final_rms / floor if floor > 0 else None)
 
 
 def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name: str):
@@ -453,15 +420,15 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
             # it did not name, leaving structure: once more with friction beyond the gear (a
             # 14 Hz spring with 40 % of it beyond on j4 was fitted at 2.4 Hz, then dropped,
             # independent simulator, tuning seed 1972).  Not when nothing is left: dearer.
-            if probe[1] and _left_structured(wide_diag, wide.data):
+            if probe[1] and left_structured(wide_diag, wide.data):
                 if wide_diag.beyond is not None:     # that pass ran already: the same
                     wide_diag = wide_diag.beyond
                 else:
                     with friction_beyond_gear():
                         wide_diag = _diagnose(wide, rec, None)
-            elif probe[1] and wide_diag.beyond is None and _mimic_without_gear(wide_diag):
+            elif probe[1] and wide_diag.beyond is None and mimic_without_gear(wide_diag):
                 # ...and when it was told, nothing left, as what such a spring passes for under
-                # a sine: that pass competes, on _diagnose's terms (_beyond_wins).  j1's
+                # a sine: that pass competes, on _diagnose's terms (beyond_wins).  j1's
                 # 13.35 Hz spring with 34 % of the friction beyond it was an inertia error
                 # (independent simulator, tuning seed 1663): around it the spring scored 0.26
                 # of what was left, below MIN_SHARE, so _diagnose's retry did not run.  True
@@ -469,100 +436,13 @@ def _wider_if_resonant(ident: Identification, diag: Diagnosis, rec: Record, name
                 # of 24 on tuning seeds), at up to 3x the analysis's time
                 with friction_beyond_gear():
                     second = _diagnose(wide, rec, None)
-                if _beyond_wins(second, wide_diag, wide.data):
+                if beyond_wins(second, wide_diag, wide.data):
                     wide_diag = second
     except (BenchError, ValueError, ArithmeticError):    # LinAlgError is a ValueError
         return ident, diag
     if wide_diag is None or "joint_flexibility" not in wide_diag.model.names() \
-            or (_left_structured(wide_diag, wide.data) and not _left_structured(diag, ident.data)):
+            or (left_structured(wide_diag, wide.data) and not left_structured(diag, ident.data)):
         return ident, diag
     wide.warnings.append(widened_warning(ident.data.c.cutoff, wide.data.c.cutoff,
                                          wide_diag.model.values["flex_frequency"]))
     return wide, wide_diag
-
-
-# A position series that is real explains the other direction of motion about as well as its
-# own: 0.99-1.0 of it (cogging and position-dependent friction on j1-j4, tuning seeds 1901-1904
-# and 7001); a gear's hysteresis taken for cogging, 0.45 (j3, independent simulator, 30 % of
-# the friction beyond 3 mrad of backlash, tuning seed 1722)
-ACROSS_SHARE = 0.8
-
-
-def _position_series_credited(diag: Diagnosis) -> bool:
-    """Was a position series (cogging, position-dependent friction) credited that explains the
-    other direction clearly less well than its own?  Under a repeated sine a gear's hysteresis
-    is cycle-locked, so position-locked too: backlash with 30 % of the friction beyond it was
-    told as cogging and position-dependent friction with nothing left (seed 1722), where the
-    gear leaves less, held out."""
-    series = {e.name for e in diag.model.effects if isinstance(e, PositionSeries)}
-    for step in diag.steps:
-        for sc in step.screens:
-            if step.effect in series and sc.effect == step.effect \
-                    and sc.explained_across < ACROSS_SHARE * sc.explained:
-                return True
-    return False
-
-
-def _gear_hysteresis_left(diag: Diagnosis, data) -> bool:
-    """Is the final residual structured, and does it follow the travel since the last reversal
-    among its first three signals?  (Under a repeated sine, position is the phase and comes
-    first, velocity often next: j1-j3 with the friction beyond their backlash, independent
-    simulator, seeds 9131-9133; with 30 % of it beyond, tuning seed 1721, travel came third.)"""
-    p = diag.final_predictability
-    if p is None or "travel_since_reversal" not in p.get("relies_on", [])[:3]:
-        return False
-    return _left_structured(diag, data)
-
-
-def _img(path: Path) -> str:
-    b64 = base64.b64encode(Path(path).read_bytes()).decode()
-    return f'<img src="data:image/png;base64,{b64}" style="max-width:100%">'
-
-
-def render_html(name: str, doc: dict, files: dict) -> str:
-    e = html.escape
-    def se(k):
-        x = doc["uncertainty"].get(k)
-        return "" if x is None else f"{x:.3g}"
-
-    rows = "".join(
-        f"<tr><td>{e(k)}</td><td>{v:.6g}</td><td>{se(k)}</td>"
-        f"<td>{'yes' if doc['identifiable'].get(k) else '<b>no</b>'}</td></tr>"
-        for k, v in doc["parameters"].items())
-    diag_rows = "".join(
-        f"<tr><td>{'&#10003;' if d['significant'] else ''}</td><td>{e(d['effect'])}</td>"
-        f"<td>{d['rms_before']:.4g}</td><td>{d['rms_after']:.4g}</td><td>{e(d['evidence'])}</td></tr>"
-        for d in doc.get("diagnosis", []))
-    steps = "".join(f"<h3>{e(k)}</h3>{_img(p)}" for k, p in files.items() if k.startswith("step"))
-    parts = [
-        f"<html><head><meta charset='utf-8'><title>friction analysis: {e(name)}</title>",
-        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
-        "td,th{border:1px solid #ccc;padding:3px 8px}</style></head><body>",
-        f"<h1>Friction analysis: {e(name)}</h1>",
-        f"<p>inertia {doc['inertia']:.6g}; fit {doc['fit'].get('fit_percent', 0):.2f} %, "
-        f"rms error {doc['fit']['rms_error']:.4g}</p>",
-        "<h2>Identified LuGre model</h2><table><tr><th>parameter</th><th>value</th><th>std. error</th>"
-        f"<th>identifiable</th></tr>{rows}</table>",
-    ]
-    if "baseline" in doc:
-        parts.append(f"<h2>Held-out error</h2><p>LuGre only: {doc['baseline']['rms_error']:.4g} &rarr; "
-                     f"with {e(', '.join(doc['final']['effects']) or 'no effect')}: {doc['final']['rms_error']:.4g}</p>")
-        if "error_fall" in files:
-            parts.append(_img(files["error_fall"]))
-        parts.append("<h2>Diagnosis</h2><table><tr><th>sig.</th><th>effect</th><th>rms before</th>"
-                     f"<th>rms after</th><th>evidence</th></tr>{diag_rows}</table>")
-        left = doc.get("unexplained")
-        if left:
-            head = "Still unexplained" if left["structured"] else "Nothing left to explain"
-            parts.append(f"<h2>{head}</h2><p>{e(left['evidence'])}</p>")
-        parts.append(f"<h2>Steps</h2>{steps}")
-        if "residual_baseline" in files:
-            parts.append(f"<h2>Where LuGre alone fails</h2>{_img(files['residual_baseline'])}")
-    for key, title in (("map", "Friction-velocity map"), ("presliding", "Presliding"),
-                       ("inertia", "Inertia sensitivity (Fig. 2)")):
-        if key in files:
-            parts.append(f"<h2>{title}</h2>{_img(files[key])}")
-    for w in doc.get("warnings", []):
-        parts.append(f"<p>warning: {e(w)}</p>")
-    parts.append("</body></html>")
-    return "\n".join(parts)

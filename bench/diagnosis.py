@@ -22,7 +22,7 @@ from bench.rounds import (SHAPE_DECIDES, SHAPE_TERMS, close_calls, close_text, s
                           far_lighter, hidden_calls, hidden_text, light_gear, lighter_text, over_gear_text,
                           over_shape_text, round_winner)
 from bench.screening import MAX_STEPS, MIN_EXPLAINED, CrossValidation, Model, Screen, screen
-from bench.signals import effective_sample_fraction
+from bench.residual_stats import effective_sample_fraction
 from bench.unexplained import MIN_SIZE_MOSTLY
 
 

@@ -21,7 +21,8 @@ from bench.gear_model import gear_unit_term
 from bench.load_side import gap_slip, spring_slip
 from bench.lugre import LuGreParams
 from bench.model_trace import filtered_columns, filtered_terms_lugre
-from bench.signals import Conditioned, effective_sample_fraction
+from bench.signals import Conditioned
+from bench.residual_stats import effective_sample_fraction
 
 LUGRE_KEYS = ("Fc", "Fs", "alpha", "sigma0", "sigma1", "sigma2")
 

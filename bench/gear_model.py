@@ -14,7 +14,8 @@ import numpy as np
 from bench import terms
 from bench.lugre import interval_to_samples
 from bench.model_trace import lugre_samples, ones, remember, segment_z0, filtered_lugre
-from bench.signals import Conditioned, second_difference
+from bench.signals import Conditioned
+from bench.grid_math import second_difference
 
 if TYPE_CHECKING:
     from bench.fitting import FitData

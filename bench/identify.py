@@ -21,7 +21,8 @@ from bench.errors import InputError, NotIdentifiable
 from bench.fitting import LUGRE_KEYS, FitData, FitResult, Param, fit, predict
 from bench.lugre import LuGreParams
 from bench.records import Record
-from bench.signals import Conditioned, condition, zero_crossings
+from bench.signals import Conditioned, condition
+from bench.grid_math import zero_crossings
 from bench.standstill import held_poses, smallest_step
 
 # A parameter is reported identifiable when its 2-sigma band is within +-30 % of its value.

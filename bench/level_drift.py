@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from bench.signals import paired_t, reversals
+from bench.residual_stats import paired_t
+from bench.signals import reversals
 
 # Fraction of the level series' variance its neighbours must predict, and the paired t of
 # that gain over segments, for "the level changes"; its size must also reach the verdict's

@@ -30,7 +30,7 @@ from bench.fitting import LUGRE_KEYS, FitData, predict
 from bench.lugre import LuGreParams, model_friction
 from bench.records import Record
 from bench.resample import reading_resolution
-from bench.signals import filtfilt, second_difference
+from bench.grid_math import filtfilt, second_difference
 
 
 # A torque reading's steps count beyond 5 % of the Coulomb level: at 10-20 % clean joints were

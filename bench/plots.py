@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bench.fitting import FitData, predict  # noqa: E402
-from bench.signals import zero_crossings  # noqa: E402
+from bench.grid_math import zero_crossings  # noqa: E402
 
 
 def _units(data_meta: dict) -> tuple[str, str]:

@@ -28,7 +28,7 @@ import numpy as np
 from bench.checkpoint import checkpoint
 from bench.level_drift import bias, level_change
 from bench.rest_memory import rest_memory
-from bench.signals import binned_r2, paired_t
+from bench.residual_stats import binned_r2, paired_t
 
 # Held-out fraction of residual variance the learner must predict, and the consistency of its
 # gain across held-out segments (paired t), for "structured".  Measured on tuning seeds

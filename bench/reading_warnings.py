@@ -9,7 +9,7 @@ from datetime import datetime, timezone
 from bench.containers import TRUNCATED_WARNING
 from bench.position_from_velocity import WARNING as POSITION_FROM_VELOCITY
 from bench.records import Record
-from bench.signals import SET_ASIDE
+from bench.velocity_column import SET_ASIDE
 from bench.slow_stream import HELD, JOINED_CLOCK, READ_BETWEEN, OWN_CLOCK_ROUGH as NOT_PINNED
 
 STANDSTILL_WARNING = ("the joint stood still for longer than a period of its motion ({n} stretches, "
@@ -115,7 +115,7 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
     """The warnings for ``rec``'s reading, first shown first; ``torque_step``: the torque
     reading's step when it is coarse (``perfect_model.torque_step``), else 0; ``held``: the
     held poses left out [(t0, t1)]; ``velocity_from``: where the fit's velocity came from
-    (``bench.signals.velocity_source``)."""
+    (``bench.velocity_column.velocity_source``)."""
     r = rec.reading
     out = []
     if r.get("whole_number_position"):

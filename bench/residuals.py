@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from bench.fitting import FitData
-from bench.signals import effective_sample_fraction
+from bench.residual_stats import effective_sample_fraction
 
 REGIMES = ("presliding", "breakaway", "stribeck", "viscous")
 

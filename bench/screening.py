@@ -31,7 +31,8 @@ import numpy as np
 
 from bench.effects import Context, Effect
 from bench.fitting import FitData, FitResult, Param, predict
-from bench.signals import paired_t, reversals
+from bench.residual_stats import paired_t
+from bench.signals import reversals
 
 MIN_EXPLAINED = 0.15
 MIN_EXPLAINED_ACROSS = 0.10

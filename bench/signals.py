@@ -16,9 +16,11 @@ from scipy import signal
 
 from bench.kernel_cache import njit  # numba's, its cache stamped with every kernel file
 from bench.errors import InputError
+from bench.grid_math import filtfilt, fourth_order_derivative, fourth_order_second_difference, held_torque, second_difference
 from bench.lugre import interval_to_samples
 from bench.records import Record
 from bench.segments import filtfilt_segments
+from bench.velocity_column import velocity_source
 
 
 @dataclass
@@ -369,177 +371,8 @@ def _segment_signals(t, q, qd, tau, dt, sos_v, held) -> dict:
             "tau_mid": np.asarray(tau[:-1], float) if held else 0.5 * (tau[1:] + tau[:-1])}
 
 
-def filtfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Zero-phase filter; a segment shorter than the default padding is padded less (its
-    samples are never scored: they lie within the filter's edge)."""
-    pad = 3 * (2 * len(sos) + 1)
-    if len(x) > pad:
-        return signal.sosfiltfilt(sos, x)
-    return signal.sosfiltfilt(sos, x, padlen=len(x) - 1) if len(x) > 1 else np.array(x, dtype=float)
-
-
-# a velocity logged in another unit than the position's per second: qd / (dq/dt) for the units
-# drives and loggers use (rpm against rad, deg/s against rad, rad/s against deg, rpm against deg)
-UNIT_RATIOS = {"rpm against rad": 60 / (2 * np.pi), "deg/s against rad": 180 / np.pi,
-               "rad/s against deg": np.pi / 180, "rpm against deg": 1 / 6, "rev/s against rad": 1 / (2 * np.pi),
-               "mm/s against m": 1e3, "m/s against mm": 1e-3}
-
-SET_ASIDE = "set aside"
-
-# qd is used unless it is clearly noisier than the position's own differences: a logged
-# velocity (a tachometer, a drive's observer) is usually the cleaner one; a noisy one is not
-QD_NOISE_RATIO = 2.0
-
-
-def velocity_source(rec: Record, dt: float, name: str = "record",
-                    sos: np.ndarray | None = None) -> tuple[bool, str]:
-    """Use the record's qd?  Also checks that qd is the derivative of q (same unit, sign) and
-    keeps time with it (``sos``: the model velocity's low-pass, for the lag's estimate)."""
-    if rec.qd is None:
-        return False, "q"
-    vq = np.diff(rec.q) / dt
-    vd = 0.5 * (rec.qd[1:] + rec.qd[:-1])
-    if rec.segments:   # intervals across a gap are not velocities
-        keep = np.ones(len(vq), dtype=bool)
-        keep[np.asarray(rec.segments[1:], dtype=int) - 1] = False
-        vq, vd = vq[keep], vd[keep]
-    ratio = float(vd @ vq / max(vq @ vq, 1e-300))
-    if not 0.8 < ratio < 1.25:
-        unit = next((f", as {u} would be" for u, k in UNIT_RATIOS.items() if abs(ratio / k - 1) < 0.03), "")
-        by_name = rec.reading.get("columns_by_name", {}).get("qd")
-        if by_name is not None:     # our guess, not the user's word: the position alone serves
-            return False, f"q (the column {by_name!r} is {ratio:.3g} times its derivative{unit}, and was {SET_ASIDE})"
-        raise InputError(f"{name}: column qd is {ratio:.3g} times the derivative of q{unit}; "
-                         "give both in the same unit (position unit per second), or leave qd out")
-    n_q = float(np.std(np.diff(vq, 2)))
-    n_qd = float(np.std(np.diff(vd, 2)))
-    if n_qd > QD_NOISE_RATIO * n_q:
-        return False, f"q (the logged qd is {n_qd / max(n_q, 1e-300):.3g}x noisier than q's differences)"
-    lag = velocity_lag(rec, dt, sos) if sos is not None else 0.0
-    if abs(lag) > QD_LAG_MAX:
-        return False, (f"q (the logged qd {'lags' if lag > 0 else 'leads'} q's derivative by "
-                       f"{abs(lag) * 1e3:.2g} ms)")
-    return True, "qd"
-
-
-# A drive's velocity estimate is often filtered or a backward difference: it lags the
-# position's derivative, the friction it drives then lags the torque, and the diagnosis named
-# a torque lag (j2 robot joint log, tuning seed 1301: qd behind by 1 and 3 ms -> `torque_lag`;
-# 0.5 ms -> nothing named, Fc 2.7 % low instead of 0.4 %).  The estimate below is within
-# 0.012 ms of zero for the true velocity on 3.8-4.3 ms logger grids and within 2 % of a
-# first-order filter's time constant (0.5-3 ms) on j1-j3, the linear stage and the rotary
-# motor (tuning seeds 1311-1312), so qd is set aside beyond this:
-QD_LAG_MAX = 0.2e-3
-
-
-def velocity_lag(rec: Record, dt: float, sos: np.ndarray) -> float:
-    """How far the logged qd lags the derivative of q [s] (negative: leads): qd ≈ c v(t − d)
-    ≈ c (v − d v̇) on both low-passed alike, by least squares over the segments."""
-    rows, target = [], []
-    for a, b in rec.segment_bounds():
-        if b - a < 60:
-            continue
-        vq = filtfilt(sos, np.diff(rec.q[a:b]) / dt)
-        vd = filtfilt(sos, 0.5 * (rec.qd[a + 1:b] + rec.qd[a:b - 1]))
-        edge = min(len(vq) // 4, 30)      # the filters' edges
-        sl = slice(edge, len(vq) - edge)
-        rows.append(np.c_[vq, np.gradient(vq, dt)][sl])
-        target.append(vd[sl])
-    if not rows:
-        return 0.0
-    coef = np.linalg.lstsq(np.vstack(rows), np.concatenate(target), rcond=None)[0]
-    return float(-coef[1] / coef[0]) if coef[0] > 0 else 0.0
-
-
 def torque_hold(rec: Record, name: str = "record") -> str:
     hold = str(rec.meta.get("torque_hold", "auto")).lower()
     if hold not in ("zoh", "sample", "auto"):
         raise InputError(f"{name}: torque_hold must be 'zoh', 'sample' or 'auto', not {hold!r}")
     return hold
-
-
-def second_difference(q: np.ndarray, dt: float) -> np.ndarray:
-    """(q[i+1] - 2 q[i] + q[i-1]) / dt^2: the narrowest stencil, so the torque it balances is
-    the one applied over [t[i-1], t[i+1]] (see ``held_torque``)."""
-    a = np.empty_like(q, dtype=float)
-    a[1:-1] = (q[2:] - 2.0 * q[1:-1] + q[:-2]) / dt ** 2
-    a[0], a[-1] = a[1], a[-2]
-    return a
-
-
-def fourth_order_second_difference(q: np.ndarray, dt: float) -> np.ndarray:
-    """q'' with error O(h^4), for torques sampled at t (not held).  The narrow stencil reads
-    q'' low by (w h)^2 / 12, which a held torque's mean balances but a sampled one does not: on
-    a 4 ms logger grid that is 2.5e-4 of the inertial torque at 2 Hz, 0.7 % of Fc on the rotary
-    motor (its torque is 27x its friction), and it reads as an inertia error (tuning seed 1209)."""
-    a = second_difference(q, dt)
-    if len(q) >= 5:
-        a[2:-2] = (-q[4:] + 16.0 * q[3:-1] - 30.0 * q[2:-2] + 16.0 * q[1:-3] - q[:-4]) / (12.0 * dt ** 2)
-    return a
-
-
-def fourth_order_derivative(v: np.ndarray, dt: float) -> np.ndarray:
-    """v' with error O(h^4) (central differences read it low by (w h)^2 / 6)."""
-    a = np.gradient(v, dt)
-    if len(v) >= 5:
-        a[2:-2] = (-v[4:] + 8.0 * v[3:-1] - 8.0 * v[1:-3] + v[:-4]) / (12.0 * dt)
-    return a
-
-
-def held_torque(tau: np.ndarray) -> np.ndarray:
-    """Torque seen by the second difference at sample i when each command is held until the
-    next sample (zero-order hold): the mean of tau[i-1] and tau[i]."""
-    out = np.empty_like(tau, dtype=float)
-    out[1:] = 0.5 * (tau[1:] + tau[:-1])
-    out[0] = tau[0]
-    return out
-
-
-def zero_crossings(x: np.ndarray) -> np.ndarray:
-    """Indices i where x changes sign between i and i+1 (zeros count as the previous sign)."""
-    s = np.sign(x)
-    for i in range(1, len(s)):  # carry signs across exact zeros
-        if s[i] == 0:
-            s[i] = s[i - 1]
-    return np.nonzero(s[:-1] * s[1:] < 0)[0]
-
-
-def effective_sample_fraction(residual: np.ndarray, max_lag: int = 2000) -> float:
-    """N_eff / N from the integrated autocorrelation time of a residual (Geyer-style
-    truncation at the first non-positive pair), to inflate least-squares standard errors
-    for filtered, correlated residuals."""
-    r = residual - residual.mean()
-    n = len(r)
-    if n < 4 or not np.any(r):
-        return 1.0
-    m = min(max_lag, n - 1)
-    f = np.fft.rfft(r, 2 * n)
-    ac = np.fft.irfft(f * np.conj(f))[: m + 1]
-    ac = ac / ac[0]
-    tau_int = 1.0
-    for k in range(1, m, 2):
-        pair = ac[k] + ac[k + 1]
-        if pair <= 0:
-            break
-        tau_int += 2.0 * pair
-    return float(min(1.0, 1.0 / tau_int))
-
-
-def paired_t(d: np.ndarray) -> float:
-    """Paired t statistic of per-segment gains ``d`` (mean over its standard error): how
-    consistently a held-out prediction beats its alternative across segments."""
-    return float(d.mean() / (d.std(ddof=1) / np.sqrt(len(d)) + 1e-300)) if len(d) > 1 else 0.0
-
-
-def binned_r2(y: np.ndarray, x: np.ndarray, side: np.ndarray, bins: int = 40) -> float:
-    """How much of y's variance x determines on each ``side`` (a boolean: the direction of
-    motion): 1 - the variance left about y's means in ``bins`` equal-width bins of x per side,
-    over y's variance.  One repeated sine ties the torque, the velocity and the travel since
-    reversal to the position this way (``bench.effects.periodic.torque_locked``,
-    ``bench.predictability.ties``)."""
-    if not np.var(y) > 0:
-        return 1.0
-    idx = np.clip(np.digitize(x, np.linspace(x.min(), x.max(), bins + 1)) - 1, 0, bins - 1) + bins * side
-    counts = np.bincount(idx, minlength=2 * bins)
-    means = np.bincount(idx, y, minlength=2 * bins) / np.maximum(counts, 1)
-    return 1.0 - float(np.var(y - means[idx]) / np.var(y))

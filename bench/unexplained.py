@@ -30,7 +30,8 @@ from bench.level_drift import biased, changes
 from bench.rest_memory import grows
 from bench.rounds import CHECK_INERTIA
 from bench.predictability import MIN_PREDICTED, T_CRIT
-from bench.signals import Conditioned, held_torque, second_difference, white_noise_rms
+from bench.signals import Conditioned, white_noise_rms
+from bench.grid_math import held_torque, second_difference
 
 MIN_SIZE = 0.01           # predictable residual rms / Fc below which nothing is worth naming...
 # ...unless the state predicts nearly all of it: then it is physics even when small.  Clean

@@ -8,7 +8,7 @@ import numpy as np
 
 from bench.effects.base import Context, Effect, lugre_directions, pitch_grid, position_periodogram, refine_pitch
 from bench.fitting import LUGRE_KEYS, Param
-from bench.signals import binned_r2
+from bench.residual_stats import binned_r2
 
 
 def format_length(x: float, unit: str) -> str:

@@ -8,7 +8,7 @@ from bench import terms
 from bench.effects.inject import parse_injections
 from bench.fitting import predict
 from bench.identify import identify
-from bench.signals import second_difference
+from bench.grid_math import second_difference
 from virtual_drives.joint import Gear, VirtualJoint, simulate_record, sine_torque
 from virtual_drives.presets import PRESETS
 

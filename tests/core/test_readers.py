@@ -16,7 +16,7 @@ from bench.analysis import analyze_record
 from bench.errors import InputError
 from bench.readers import read_record
 from bench.records import Record
-from bench.signals import held_torque, second_difference
+from bench.grid_math import held_torque, second_difference
 from virtual_drives.joint import simulate_record, sine_torque
 from virtual_drives.presets import PRESETS
 

@@ -14,7 +14,7 @@ from bench.effects import get
 from bench.fitting import LUGRE_KEYS, Param
 from bench.refit import evaluate
 from bench.screening import CrossValidation, Model, screen
-from bench.signals import effective_sample_fraction
+from bench.residual_stats import effective_sample_fraction
 from bench.structure_spread import STORY_SHARE, parts, stories, widened
 from tests.diagnosis.tracked_logs import library_physics
 from tests.independent_joint import independent_record
