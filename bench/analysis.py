@@ -53,6 +53,8 @@ class Analysis:
         doc.update(self.reading())
         if self.diagnosis is None:
             self.clock_room.told(doc)
+            data = self.ident.data       # a fit run off is said without the diagnosis too
+            undetermined_fit.told(doc, data.friction, 1.0 / data.c.dt, data.c.cutoff)
             return doc
         d = self.diagnosis
         if d.started_from:     # not the identification's: a wider band's diagnosis may replace this one

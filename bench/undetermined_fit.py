@@ -9,8 +9,8 @@ the state learner predicts well: the verdict pointed at non-linear viscous frict
 effects and backlash, none of which the joint had.  A fit is taken as not determined when none
 of the three values a friction compensator needs (Fc, Fs, sigma2) is identifiable, or when Fc
 or Fs lies beyond ``RUNAWAY`` times the largest friction torque the record shows (the joint
-breaks away at its static level: the record shows it).  The verdict then says so first, with
-what to record instead; its own findings follow, kept, since some physics (a gear's play) can
+breaks away at its static level: the record shows it).  A warning says so, with or without
+the diagnosis; a structured verdict then says so first, with what to record instead; its own findings follow, kept, since some physics (a gear's play) can
 itself leave the fit undetermined.
 """
 from __future__ import annotations
@@ -51,8 +51,8 @@ def told(doc: dict, friction, rate_hz: float, cutoff_hz: float) -> bool:
              f"of it), " if rate_hz < FINE_RATE else "")
     hint = (f"a record that determines the model first: {finer}a longer record, or an excitation that holds "
             f"the joint sliding for longer at a lower acceleration")
-    if ran:
-        doc.setdefault("warnings", []).append(f"the fit ran off: {ran}; look for {hint}")
+    doc.setdefault("warnings", []).append(f"the fit ran off: {ran}; look for {hint}" if ran else
+                                          f"the record does not determine the LuGre model ({why}); look for {hint}")
     if left.get("structured"):
         # the verdict's own "look for" follows, once: the first is the record's
         left["look_for"] = [hint] + [x for x in left.get("look_for", []) if x != hint]

@@ -49,3 +49,15 @@ def test_the_rule_on_its_own():
                 unexplained={"structured": False, "look_for": [], "evidence": "noise"})
     assert told(none, friction, 1000.0, 50.0)
     assert none["unexplained"] == {"structured": False, "look_for": [], "evidence": "noise", "fit_undetermined": True}
+
+
+def test_a_fit_run_off_is_said_without_the_diagnosis_too():
+    """`bench analyze --no-diagnosis`: no verdict to head, but a warning says it (here the
+    LuGre-only fit is not determined rather than run off: Fc 4.7x the truth, all three values
+    not identifiable)."""
+    rec, _ = independent_record(ROTARY, duration=30.0, seed=10243, dt=8e-3, jitter=0.6, drop=0.02,
+                                disturbance=0.01 * ROTARY.friction.Fc)
+    doc = analyze_record(rec, diagnose_effects=False, name="rotary").report()
+    assert "unexplained" not in doc
+    assert any(w.startswith(("the fit ran off: F", "the record does not determine the LuGre model ("))
+               and "a finer logger (this one samples at 124 Hz" in w for w in doc["warnings"]), doc["warnings"]
