@@ -109,7 +109,10 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     names = _names(table)
     by_name, of_joint = {}, {}
     if mapping is None:         # roles by their own names or as loggers name them (bench.column_names)
-        mapping, by_name, of_joint = column_names.default_mapping(names, ROLES, REQUIRED, joint)
+        try:
+            mapping, by_name, of_joint = column_names.default_mapping(names, ROLES, REQUIRED, joint)
+        except InputError as bad_joint:      # a --joint no column names: said with the file's name
+            raise InputError(f"{name}: {bad_joint}") from None
         by_name = {**of_joint, **by_name}      # a joint's columns were found by their names too
         joint_columns.refuse_unfound(mapping, names, joint, name)    # which joint, or what it lacks
     if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):

@@ -178,6 +178,9 @@ def test_a_joint_no_column_names_and_one_beside_a_mapping_are_refused(rec, tmp_p
     res, _ = _analyze(p, "--joint", "3", "--columns", "t=t,tau=tau3,q=q3")
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert res.exit_code == 2 and len(lines) == 1 and "with --columns give the columns' full names" in lines[0], res.output
+    res, _ = _analyze(p, "--joint", "9")      # through the reader: the file named first
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert res.exit_code == 2 and lines == [f"error: {p}: --joint 9: no column names that joint (columns: t, q3, tau3)"], res.output
 
 
 def test_a_matlab_matrix_of_joints_gives_its_column_and_its_index_is_no_unit(rec, tmp_path):
