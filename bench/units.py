@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import math
 import re
+import time
 
 import numpy as np
 
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, Record
-from bench.validate import RECORD_BOUNDS
 
 POSITION_UNITS = {"revolute": {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi},
                   "prismatic": {"m": 1.0, "mm": 1e-3, "um": 1e-6}}
@@ -49,22 +49,27 @@ def factor_of(unit: str, known: dict) -> tuple[float, str] | None:
     return None
 
 
-# Seconds since 1970 a log can hold: 2001-09-09 (1e9 s) to 2099 (4.1e9 s).  Counted in ms, us
-# or ns the windows lie 1e3 apart and never overlap, and read in seconds such a count would lie
-# millennia ahead: the magnitude names the unit (ROS's and rostopic's ns stamps, a ms logger's)
-EPOCH_S = (1e9, 4.1e9)
+# Seconds since 1970 a log can hold: from 2001-09-09 (1e9 s) to a day from now.  Counted in ms,
+# us or ns the windows lie 1e3 apart and never overlap, and read in seconds such a count would
+# lie millennia ahead: the magnitude names the unit (ROS's and rostopic's ns stamps, a ms
+# logger's).  A counter since boot can land in a window too (us for 12-20 days read as ms since
+# 1970), but then its step reads 1000x too long: only 20 Hz to 10 MHz is taken for a logger's
+EPOCH_FROM = 1e9
+EPOCH_STEP = (1e-7, 0.05)
 
 
-def epoch_unit(t) -> str | None:
-    """"ms", "us" or "ns" when every time in ``t`` is that unit counted since 1970 and the
-    median step in it is a logger's (``RECORD_BOUNDS``); else None."""
+def epoch_unit(t, now: float | None = None) -> str | None:
+    """"ms", "us" or "ns" when every time in ``t`` is that unit counted since 1970 up to
+    ``now`` (seconds since 1970; the clock's by default) and the median step in it is a
+    logger's (``EPOCH_STEP``); else None."""
     t = np.asarray(t, dtype=float)
     if len(t) < 2 or not np.all(np.isfinite(t)):
         return None
+    until = (time.time() if now is None else now) + 86400.0
     for unit in ("ms", "us", "ns"):
         k = TIME_UNITS[unit]
-        if EPOCH_S[0] <= t.min() * k and t.max() * k <= EPOCH_S[1]:
-            lo, hi = RECORD_BOUNDS["step"]
+        if EPOCH_FROM <= t.min() * k and t.max() * k <= until:
+            lo, hi = EPOCH_STEP
             return unit if lo <= float(np.median(np.diff(t))) * k <= hi else None
     return None
 

@@ -228,10 +228,11 @@ def test_a_logger_counting_nanoseconds_since_the_epoch(tmp_path):
     (1.7e12 + np.arange(5), "ms"), (1.7e15 + np.arange(5) * 1e3, "us"), (1.7e18 + np.arange(5) * 1e6, "ns"),
     (1.7e18 + np.arange(5) * 1e9, None),             # 1 s steps: no logger this tool reads
     (np.arange(5) * 1e6, None),                      # ns from the logger's start: no date to go by
-    (5e12 + np.arange(5), None)])                    # ms from 1970 would be 2128
-def test_the_epoch_names_its_unit_only_by_a_date_and_a_loggers_step(t, unit):
+    (1.5e12 + np.arange(5) * 100, None),             # us since a boot 17 days ago, at 10 kHz: 0.1 "s" steps
+    (1.8e12 + np.arange(5), None)])                  # ms from 1970 would be 2027, after "now"
+def test_the_epoch_names_its_unit_only_by_a_past_date_and_a_loggers_step(t, unit):
     from bench.units import epoch_unit
-    assert epoch_unit(t) == unit
+    assert epoch_unit(t, now=1.765e9) == unit        # 2025-12-06
 
 
 def test_clock_times_in_a_csv_and_a_parquet_read_as_seconds_from_the_first(tmp_path):
