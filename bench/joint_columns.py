@@ -73,8 +73,9 @@ def labels_in(names: list[str]) -> list[str]:
         return list(out)
     folders = dict.fromkeys(p for n in names for p in str(n).split("/")[:-1]
                             if re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-.]*", p))
-    out = _picking(names, list(folders)[:100])
-    return [a for a in out if not any(out[b] < out[a] for b in out)]
+    # one label per set of columns (a joint's own folder is the deeper one), none holding another's
+    out = {frozenset(cols): label for label, cols in _picking(names, list(folders)[:100]).items()}
+    return [label for cols, label in out.items() if not any(other < cols for other in out)]
 
 
 def _picking(names: list[str], labels: list[str]) -> dict[str, set]:
@@ -102,8 +103,9 @@ def refuse_unfound(mapping: dict, names: list[str], joint: str | None, name: str
     if not lacking:
         return
     if joint is None and len(joints := labels_in(names)) > 1:
+        how = "N" if joints[0].isdigit() else "NAME"
         raise InputError(f"{name}: a log of several joints ({', '.join(joints)}): choose one with "
-                         f"--joint {'N' if joints[0].isdigit() else 'NAME'}, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
+                         f"--joint {how}, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
     if joint is not None:
         own = ", ".join(map(str, joint_columns(names, joint).values()))
         raise InputError(f"{name}: joint {joint}'s columns ({own}) hold no {' and no '.join(what[r] for r in lacking)} "

@@ -10,8 +10,9 @@ effects and backlash, none of which the joint had.  A fit is taken as not determ
 of the three values a friction compensator needs (Fc, Fs, sigma2) is identifiable, or when Fc
 or Fs lies beyond ``RUNAWAY`` times the largest friction torque the record shows (the joint
 breaks away at its static level: the record shows it).  A warning says so, with or without
-the diagnosis; a structured verdict then says so first, with what to record instead; its own findings follow, kept, since some physics (a gear's play) can
-itself leave the fit undetermined.
+the diagnosis; a structured verdict then says so first, with what to record instead; its own
+findings follow, kept, since some physics (a gear's play) can itself leave the fit
+undetermined.
 """
 from __future__ import annotations
 

@@ -133,6 +133,8 @@ def test_joints_named_by_words_alone_are_listed_by_their_names():
     joints; "joint_states", which holds them all, is not one of them."""
     assert labels_in(UR_PJ) == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint"]
     assert labels_in(PJ) == ["1", "2", "3", "4"]     # numbered: the numbers, not panda_joint1..4
+    one = [n for n in UR_PJ if "elbow" in n or n == "__time"]
+    assert labels_in(one) == ["elbow_joint"]          # one joint, in joint_states/: not two
     mapping, _, _ = default_mapping(UR_PJ, ROLES, REQUIRED, "elbow_joint")
     assert mapping == {"t": "__time", "q": UR_PJ[7], "qd": UR_PJ[8], "tau": UR_PJ[9]}
 
