@@ -109,6 +109,25 @@ def _time_unit_hint(step: float, given: float = 1.0) -> str:
     return " (is t in ms, us or ns? give the time unit)"
 
 
+def _repeats_hint(t) -> str:
+    """Why a step reads 0 when the times repeat: their digits lost, as a float32 loses an
+    epoch's (128 s steps at 1.7e9 s), or a CSV printed with too few digits."""
+    import numpy as np
+    t = np.asarray(t, dtype=float)
+    distinct = np.unique(t)
+    if len(distinct) > len(t) / 2:
+        return ""
+    gap = float(np.median(np.diff(distinct))) if len(distinct) > 1 else 0.0
+    f32 = float(np.spacing(np.float32(np.max(np.abs(t)))))
+    if len(distinct) > 1:       # their spacing says which
+        lost = f" (a float32's, which keeps only {f32:.3g} s steps at this magnitude)" if abs(gap / f32 - 1) < 0.01 else ""
+    else:
+        lost = f" (a float32 keeps only {f32:.3g} s steps at this magnitude; a text export may have written too few)"
+    apart = f", {gap:.3g} s apart" if len(distinct) > 1 else ""
+    return (f" ({len(distinct)} distinct times in {len(t)} rows{apart}: the time lost its digits{lost}; "
+            f"log it in float64 with all its digits, or counted from the logger's start)")
+
+
 def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
                       with_inertia: bool = True) -> None:
     """Finite columns within ``RECORD_BOUNDS``: the time step, the torque's largest magnitude,
@@ -129,7 +148,7 @@ def record_magnitudes(rec, inertia: float | None = None, name: str = "record",
         step = float(np.median(np.diff(rec.t)))
         if not lo <= step <= hi:
             given = rec.reading.get("units", {}).get("time", {}).get("factor", 1.0)
-            hint = _time_unit_hint(step, given) if step > hi else ""
+            hint = _time_unit_hint(step, given) if step > hi else _repeats_hint(rec.t)
             raise InputError(f"{name}: sample step {step:.3g} s is outside {lo:g}..{hi:g} s{hint}")
     lo, hi = RECORD_BOUNDS["tau"]
     peak = float(np.max(np.abs(rec.tau)))

@@ -80,3 +80,24 @@ def test_a_jittered_lossy_logger_with_a_coarse_clock_is_analysed():
         assert not doc["unexplained"]["structured"], (joint, doc["unexplained"]["evidence"])
         errors = {k: doc["parameters"][k] / getattr(spec.friction, k) - 1 for k in ("Fc", "Fs", "sigma2")}
         assert max(abs(e) for e in errors.values()) < 0.05, (joint, errors)
+
+
+def test_a_time_that_lost_its_digits_is_refused_saying_so(tmp_path):
+    """An epoch in seconds stored as float32 (128 s steps at 1.76e9 s) holds one time for a
+    20 s log: nothing to spread, so refused, one line, naming what the digits were lost to;
+    a text export written with too few digits is told the same, both causes named."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    t = 1.764e9 + np.arange(20000) * 1e-3
+    q = 0.3 * np.sin(np.pi * (t - t[0]))
+    tau = 5.0 * np.tanh(50.0 * np.cos(np.pi * (t - t[0])))
+    pq.write_table(pa.table({"time": t.astype(np.float32), "position": q, "effort": tau}), tmp_path / "f32.parquet")
+    (tmp_path / "few.csv").write_text("t,tau,q\n" + "\n".join(f"{a:.7g},{b:.6g},{c:.6g}" for a, b, c in zip(t, tau, q)))
+    for name in ("f32.parquet", "few.csv"):
+        r = subprocess.run([*BENCH, "analyze", str(tmp_path / name), "--inertia", "0", "--no-diagnosis"],
+                           capture_output=True, text=True)
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert r.returncode == 2 and len(lines) == 1, r.stderr
+        assert ("sample step 0 s is outside 1e-07..0.2 s (1 distinct times in 20000 rows: the time lost its "
+                "digits (a float32 keeps only 128 s steps at this magnitude; a text export may have written "
+                "too few)") in lines[0], lines[0]
