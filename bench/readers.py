@@ -33,7 +33,7 @@ from bench.sample_rate import sample_rate_of
 from bench.slow_stream import filled_forward
 from bench.text_table import read_text
 from bench.turns import unwrap_turns
-from bench.units import TIME_UNITS, epoch_unit, to_si, velocity_factor, whole_number_position
+from bench.units import to_si, velocity_factor, whole_number_position
 from bench.validate import record_magnitudes
 
 ROLES = ("t", "tau", "q", "qd")
@@ -199,9 +199,6 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None, wrapped: dict | None 
         rec.reading["time_counter"] = {"bits": counter[0], "wraps": counter[1]}
     if counts := whole_number_position(rec):    # encoder counts with no unit given
         rec.reading["whole_number_position"] = counts
-    if rec.meta.get("time_unit") is None and not rec.reading.get("clock_time") and (unit := epoch_unit(rec.t)):
-        rec.meta["time_unit"] = unit      # ns since 1970 (ROS), say: told with the first sample's date
-        rec.reading["epoch_time"] = {"unit": unit, "start": float(rec.t[0]) * TIME_UNITS[unit]}
     to_si(rec, name)
     if rec.reading.get("position_from") == "qd":
         position_from_velocity.integrate(rec)

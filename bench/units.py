@@ -80,6 +80,9 @@ def to_si(rec: Record, name: str) -> None:
         raise InputError(f"{name}: joint_type must be prismatic or revolute, not {jt!r}")
     conv = {}
     unit = rec.meta.get("time_unit")
+    if unit is None and not rec.reading.get("clock_time") and (unit := epoch_unit(rec.t)):
+        # ns since 1970 (ROS), say: told with the first sample's date
+        rec.reading["epoch_time"] = {"unit": unit, "start": float(rec.t[0]) * TIME_UNITS[unit]}
     if unit is not None:
         found = factor_of(str(unit), TIME_UNITS)
         if found is None:
