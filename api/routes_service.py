@@ -130,6 +130,18 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
                   add: Optional[str] = Query(None, max_length=200, description="effects to add, comma-separated"),
                   diagnose: bool = Query(True, description="diagnose what the LuGre model misses"),
                   svc: Service = Depends(service), _=Depends(operator)):
+    # the core speaks bench analyze's options; a poster of files is told the query parameters
+    from api.wording import in_api_words, report_in_api_words
+    try:
+        doc = await _analyze(request, svc, inertia, columns, joint, joint_type, time_unit, window,
+                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose)
+    except InputError as e:
+        raise type(e)(in_api_words(str(e))) from None
+    return doc if isinstance(doc, Response) else report_in_api_words(doc)
+
+
+async def _analyze(request: Request, svc: Service, inertia, columns, joint, joint_type, time_unit, window,
+                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose):
     name, raw = await _upload(request)
     from bench.readers import parse_columns, parse_window
     from bench.records import inertia_setting

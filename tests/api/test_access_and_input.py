@@ -312,7 +312,7 @@ def test_analyze_a_logger_file_stating_its_units_with_a_wrapping_counter_and_ang
                                 params={"diagnose": "false", **({"joint": joint} if joint else {})}, timeout=180)
            for joint in ("2", None, "a b")}
     assert [r.status_code for r in got.values()] == [200, 422, 422], [r.text for r in got.values()]
-    assert "a log of several joints (1, 2): choose one with --joint N" in got[None].json()["detail"]
+    assert "a log of several joints (1, 2): choose one with ?joint=N" in got[None].json()["detail"]
     assert all("\n" not in got[j].text for j in (None, "a b"))
     r = got["2"]
     assert r.json()["parameters"] == pytest.approx(si.json()["parameters"], rel=1e-5)
