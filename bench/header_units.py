@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import re
 
-from bench.units import KNOWN, SI, TABLES, factor_of, normalise
+from bench.errors import InputError
+from bench.units import KNOWN, SI, TABLES, VELOCITY_BY_TYPE, base_unit, factor_of, normalise
 
 # "name [unit]", "name (unit)" or "name/unit" at the end of a column name
 _BRACKETED = re.compile(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$")
@@ -64,18 +65,42 @@ def split_units_row(header: list[str], second: list[str]) -> dict | None:
     return units if any(is_unit(u) for u in units.values()) else {}
 
 
-def apply(rec) -> None:
+def _joint_types(units: dict, speed: str | None) -> dict:
+    """{"q in deg": "revolute", ...}: the joint type each stated unit belongs to alone.  The
+    velocity's counts only when neither the position nor the torque states one: a ball
+    screw's motor speed in rpm beside its carriage's mm is a log of a prismatic joint."""
+    out = {}
+    for role in ("q", "tau"):
+        kinds = [jt for jt, known in TABLES[role].items() if factor_of(units.get(role) or "", known)]
+        if len(kinds) == 1:
+            out[f"{role} in {units[role]}"] = kinds[0]
+    if not out and speed and base_unit(speed) in VELOCITY_BY_TYPE["prismatic"]:
+        out[f"qd in {speed}"] = "prismatic"
+    return out
+
+
+def apply(rec, name: str) -> None:
     """Take the units ``rec.reading['stated_units']`` ({role: unit as written}) states where
     no option or metadata line gave one; a length or force unit with no joint type stated
-    makes the joint prismatic."""
-    stated = rec.reading.pop("stated_units", None)
-    if not stated:
+    makes the joint prismatic (a velocity column's mm/s too)."""
+    stated = rec.reading.pop("stated_units", None) or {}
+    speed = rec.reading.get("velocity_unit")
+    if not stated and not speed:
         return
     units = {role: normalise(u) for role, u in stated.items()}
     taken, warned = {}, {}
-    if "joint_type" not in rec.meta and (units.get("q") in TABLES["q"]["prismatic"]
-                                         or units.get("tau") in TABLES["tau"]["prismatic"]):
-        rec.meta["joint_type"] = taken["joint_type"] = "prismatic"
+    if "joint_type" not in rec.meta:
+        # a unit an option or a metadata line overrides says nothing of the joint
+        implied = _joint_types({r: u for r, u in units.items() if KEYS.get(r) not in rec.meta},
+                               speed[0] if speed else None)
+        if len(set(implied.values())) > 1:
+            # degrees beside newtons: which is wrong cannot be told, and either reading
+            # puts the other column in a wrong unit, so the user says
+            said = "; ".join(f"{what}: {jt}" for what, jt in implied.items())
+            raise InputError(f"{name}: the header's units disagree on the joint type ({said}): give "
+                             f"--joint-type revolute or prismatic")
+        if "prismatic" in implied.values():
+            rec.meta["joint_type"] = taken["joint_type"] = "prismatic"
     jt = str(rec.meta.get("joint_type", "revolute"))
     for role, unit in units.items():
         key = KEYS[role]
@@ -89,5 +114,5 @@ def apply(rec) -> None:
         else:
             si = "s" if role == "t" else SI.get(jt, SI["revolute"])[0 if role == "q" else 1]
             warned[role] = (f"{stated[role]!r} is not a {ROLE_NAMES[role]} unit: taken in {si} "
-                            f"(give {key.replace('_', '-')} K*{si}, K in {si} per {stated[role]})")
+                            f"(give --{key.replace('_', '-')} K*{si}, K in {si} per {stated[role]})")
     rec.reading["header_units"] = {"taken": taken, "ignored": warned}

@@ -189,7 +189,7 @@ def _finish(rec: Record, name, fmt, opts: dict, span=None, wrapped: dict | None 
             rec.meta[key] = value
     rec.reading.update(wrapped or {})
     rec.reading.setdefault("format", fmt)
-    header_units.apply(rec)
+    header_units.apply(rec, name)
     joined = sparse_columns(rec)       # streams on rows of their own (bench.joined_streams)
     if joined:
         rec.reading["joined_streams"] = joined

@@ -157,6 +157,8 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(BY_NAME_WARNING.format(taken=of_joint + taken))
         if aside:
             out.append(f"the velocity was taken from the position: {velocity_from[3:-1]}")
+    if r.get("velocity_set_aside"):          # bench.units.to_si: its unit is another joint type's
+        out.append(f"the velocity was taken from the position: {r['velocity_set_aside']}")
     if r.get("preamble_lines"):
         lines = r["preamble_lines"]
         out.append(PREAMBLE_WARNING.format(n=len(lines), first=lines[0][:60]))

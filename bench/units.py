@@ -103,7 +103,8 @@ def to_si(rec: Record, name: str) -> None:
         found = factor_of(str(unit), known)
         if found is None:
             raise InputError(f"{name}: {key} {rec.meta[key]!r} is not one for a {jt} joint "
-                             f"(known: {', '.join(known)}, or K*UNIT such as 0.12*{SI[jt][1 if role == 'torque' else 0]})")
+                             f"(known: {', '.join(known)}, or K*UNIT such as 0.12*{SI[jt][1 if role == 'torque' else 0]})"
+                             + _other_type(str(unit), table, jt))
         factor, unit = found
         if factor != 1.0:
             si = SI[jt][0 if role == "position" else 1]
@@ -115,6 +116,15 @@ def to_si(rec: Record, name: str) -> None:
                     rec.qd = rec.qd * factor
             else:
                 rec.tau = rec.tau * factor
+    if own and rec.qd is not None and base_unit(own[0]) not in VELOCITY_BY_TYPE[jt]:
+        # a motor's rpm beside a ball screw's mm: no factor makes it this joint's velocity
+        by_name = rec.reading.get("columns_by_name", {}).get("qd")
+        if by_name is None or rec.reading.get("position_from") == "qd":
+            # (a linear speed with nothing else stated made the joint prismatic: bench.header_units)
+            raise InputError(f"{name}: the velocity column is in {own[0]}, not a unit for a {jt} joint "
+                             f"(known: {', '.join(VELOCITY_BY_TYPE[jt])}); give it in one of them, or leave qd out")
+        rec.reading["velocity_set_aside"] = f"the column {by_name!r} is in {own[0]}, not a {jt} joint's velocity unit"
+        rec.qd, own = None, None
     if own and rec.qd is not None:
         unit, factor = own
         if factor != 1.0:
@@ -127,6 +137,21 @@ def to_si(rec: Record, name: str) -> None:
 # it was scaled by the position's factor, so a drive's rpm beside its degrees was refused
 VELOCITY_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": math.pi / 30.0, "rev/s": 2.0 * math.pi,
                   "m/s": 1.0, "mm/s": 1e-3, "um/s": 1e-6}
+VELOCITY_BY_TYPE = {"revolute": ("rad/s", "deg/s", "rpm", "rev/s"), "prismatic": ("m/s", "mm/s", "um/s")}
+
+
+def base_unit(unit: str) -> str:
+    """"0.5*rad/s" -> "rad/s": the unit a scale multiplies."""
+    m = _SCALED.match(normalise(unit))
+    return normalise(m.group(2)) if m else normalise(unit)
+
+
+def _other_type(unit: str, table: dict, jt: str) -> str:
+    """The hint when a unit belongs to the other joint type: the joint type is what is wrong
+    (a linear axis read as the default revolute one), not the unit."""
+    other = next(t for t in JOINT_TYPES if t != jt)
+    return f"; it is one for a {other} joint: give --joint-type {other} if the joint is one" \
+        if base_unit(unit) in table[other] else ""
 _VELOCITY_ALIASES = {"°/s": "deg/s", "1/min": "rpm", "r/min": "rpm", "rev/min": "rpm", "min^-1": "rpm",
                      "µm/s": "um/s"}
 

@@ -122,3 +122,45 @@ def test_a_velocity_column_stating_its_own_unit_is_converted_by_it(rec):
         np.testing.assert_allclose(got.qd, qd, rtol=1e-7, atol=1e-9)
         assert got.reading["units"]["velocity"] == {"from": "rpm", "to": "rad/s", "factor": np.pi / 30}
         assert got.reading["columns"]["qd"] == header.split(",")[2]
+
+
+def test_a_velocity_unit_of_the_other_joint_type_is_never_read_as_this_ones(tmp_path):
+    """A ball screw's log: the carriage in mm, the motor's speed in rpm.  The rpm column was
+    scaled by rpm's factor and labelled m/s; found by name it is now set aside (the position
+    serves) and said, mapped it is refused.  A velocity in mm/s beside unlabelled columns makes
+    the joint prismatic, as a position in mm does; a header whose units disagree on the joint
+    type (degrees beside newtons) is refused naming both.  Fresh seed 10251 (linear stage)."""
+    spec = PRESETS["linear"]
+    lin = simulate_record(spec, *spec.excitation, duration=12.0, seed=10251).record
+    qd = np.gradient(lin.q, lin.t)
+    rows = "\n".join(f"{t:.6f},{1e3 * q:.10g},{v * 30 / np.pi * 200:.8g},{x:.9g}"
+                     for t, q, v, x in zip(lin.t, lin.q, qd, lin.tau))
+    p = tmp_path / "screw.csv"
+    p.write_text(f"time [s],position [mm],speed [rpm],force [N]\n{rows}\n")
+    out = tmp_path / "r.json"
+    runner = CliRunner()
+    res = runner.invoke(app, ["analyze", str(p), "--inertia", repr(spec.inertia), "--no-diagnosis", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["input"]["velocity_from"] == "q" and "velocity" not in doc["units"]["conversions"], doc["input"]
+    assert any("the velocity was taken from the position: the column 'speed [rpm]' is in rpm" in w
+               for w in doc["warnings"]), doc["warnings"]
+    assert abs(doc["parameters"]["Fc"] / spec.friction.Fc - 1) < 0.05, doc["parameters"]
+    with pytest.raises(InputError, match=r"velocity column is in rpm, not a unit for a prismatic joint .*; "
+                                         r"give it in one of them, or leave qd out$"):
+        read_record(p, inertia=spec.inertia, columns="t=time [s],tau=force [N],q=position [mm],qd=speed [rpm]")
+    # mm/s alone says the joint is linear; read as revolute it was 1e-3 "rad/s"
+    si = "\n".join(f"{t:.6f},{x:.9g},{q:.12g},{1e3 * v:.8g}" for t, q, v, x in zip(lin.t, lin.q, qd, lin.tau))
+    got = read_record(f"t,tau,q,qd [mm/s]\n{si}\n".encode(), name="mm_s.csv", inertia=spec.inertia)
+    assert got.meta["joint_type"] == "prismatic" and got.reading["header_units"]["taken"] == {"joint_type": "prismatic"}
+    np.testing.assert_allclose(got.qd, qd, rtol=1e-7, atol=1e-12)
+    with pytest.raises(InputError, match=r"mm/s, not a unit for a revolute joint .*; give it in one of them, "
+                                         r"or leave qd out$"):
+        read_record(f"t,tau [N*m],q,qd [mm/s]\n{si}\n".encode(), name="v.csv", inertia=spec.inertia)
+    # a position unit given as an option, the joint type left at its default: the type is the suspect
+    with pytest.raises(InputError, match=r"position_unit 'mm' is not one for a revolute joint .*; it is one for a "
+                                         r"prismatic joint: give --joint-type prismatic if the joint is one$"):
+        read_record(f"t,tau,q,qd\n{si}\n".encode(), name="o.csv", inertia=spec.inertia, position_unit="mm")
+    with pytest.raises(InputError, match=r"the header's units disagree on the joint type \(q in deg: revolute; "
+                                         r"tau in N: prismatic\): give --joint-type revolute or prismatic"):
+        read_record("t,tau [N],q [deg]\n0,1,2\n0.001,1,2\n".encode(), name="mixed.csv", inertia=1.0)
