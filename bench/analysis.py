@@ -29,7 +29,7 @@ from bench.records import Record
 from bench.resample import on_grid
 from bench.residuals import breakdown
 from bench.slow_stream import filled_forward
-from bench import load_torque, structure_spread, undetermined_fit
+from bench import chain_bias, load_torque, structure_spread, undetermined_fit
 from bench.unexplained import assess, level_changes, noise_floor, rest_grows, state_structured, structured
 from bench.validate import in_range, record_magnitudes
 from bench.gear_story import beyond_wins, gear_hysteresis_left, left_structured, mimic_without_gear, \
@@ -46,6 +46,7 @@ class Analysis:
     plot_files: dict = field(default_factory=dict)
     clock_room: ClockRoom = field(default_factory=ClockRoom)    # bench.clock_room: a merged clock
     _spread: tuple | None = field(default=None, repr=False)      # bench.structure_spread, once
+    _chain: dict | None = field(default=None, repr=False)        # bench.chain_bias, once
 
     # --- the JSON contract -------------------------------------------------------------------
     def report(self) -> dict:
@@ -53,6 +54,7 @@ class Analysis:
         doc.update(self.reading())
         if self.diagnosis is None:
             self.clock_room.told(doc)
+            chain_bias.widened(doc, self.chain_shift())
             data = self.ident.data       # a fit run off is said without the diagnosis too
             undetermined_fit.told(doc, data.friction, 1.0 / data.c.dt, data.c.cutoff)
             return doc
@@ -116,6 +118,7 @@ class Analysis:
                                     if data.inertia > 0 else None)
         if doc["unexplained"]["structured"]:
             structure_spread.widened(doc, *self.structure_spread(doc["uncertainty"]))
+        chain_bias.widened(doc, self.chain_shift())
         undetermined_fit.told(doc, data.friction, 1.0 / data.c.dt, data.c.cutoff)   # a fit run off is not physics
         return doc
 
@@ -128,6 +131,16 @@ class Analysis:
             self._spread = (structure_spread.spread(data, d.model, se),
                             structure_spread.stories(data, d.model, d.contexts[-1].model, d.remaining))
         return self._spread
+
+    def chain_shift(self) -> dict:
+        """How far the measurement chain alone moves the LuGre values (``bench.chain_bias``;
+        computed once, as ``predictability``)."""
+        if self._chain is None:
+            d, data = self.diagnosis, self.ident.data
+            start = d.start.values if d is not None and d.start is not None else self.ident.result.values
+            twin, _ = replay(self.record, data, start, self.ident.inertia, data.c.cutoff)
+            self._chain = chain_bias.shift(twin, start)
+        return self._chain
 
     def predictability(self) -> dict:
         """How much of the final residual the joint's state predicts on held-out segments
