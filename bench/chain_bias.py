@@ -24,16 +24,20 @@ import math
 
 from bench.fitting import LUGRE_KEYS, FitData, Param, fit
 from bench.identify import is_identifiable
+from bench.perfect_model import replay
+from bench.records import Record
 
 # A local polish: the twin starts at its own truth
 POLISH_NFEV = 30
 
 
-def shift(twin: FitData, values: dict) -> dict[str, float]:
-    """{LuGre key: the twin's refitted value minus ``values``'s} (signed)."""
+def shift(rec: Record, data: FitData, values: dict, inertia: float) -> dict[str, float]:
+    """{LuGre key: the twin's refitted value minus ``values``'s} (signed), the twin being
+    ``rec`` replayed through ``values``."""
     v = {k: float(values[k]) for k in LUGRE_KEYS}
     if not all(x > 0 and math.isfinite(x) for x in v.values()):
         return {}
+    twin, _ = replay(rec, data, values, inertia, data.c.cutoff)
     params = [Param(k, v[k], lo=math.log(v[k]) - 4, hi=math.log(v[k]) + 4) for k in LUGRE_KEYS]
     res = fit(twin, params, fixed=dict(values), max_nfev=POLISH_NFEV)
     return {k: float(res.values[k]) - v[k] for k in LUGRE_KEYS}
