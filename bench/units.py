@@ -152,6 +152,8 @@ def _other_type(unit: str, table: dict, jt: str) -> str:
     other = next(t for t in JOINT_TYPES if t != jt)
     return f"; it is one for a {other} joint: give --joint-type {other} if the joint is one" \
         if base_unit(unit) in table[other] else ""
+
+
 _VELOCITY_ALIASES = {"°/s": "deg/s", "1/min": "rpm", "r/min": "rpm", "rev/min": "rpm", "min^-1": "rpm",
                      "µm/s": "um/s"}
 

@@ -144,7 +144,7 @@ def test_analyze_csv_body_and_multipart(operator):
     assert r.json()["parameters"] == pytest.approx(doc["parameters"], rel=1e-6)
     r = operator.post("/analyze", content=untimed, headers={"content-type": "text/csv"},
                       params={"diagnose": "false"}, timeout=60)
-    assert r.status_code == 422 and "--sample-rate HZ" in r.json()["detail"], r.text
+    assert r.status_code == 422 and "?sample_rate=HZ" in r.json()["detail"], r.text
 
 
 def test_analyze_an_upload_whose_inertia_is_to_be_estimated(operator):
