@@ -151,8 +151,9 @@ def reading_warnings(rec: Record, fc: float, torque_step: float, held: list = ()
         out.append(GLITCH_WARNING.format(n=r["glitches"]))
     if r.get("columns_by_name"):
         aside = velocity_from.endswith(f"{SET_ASIDE})")     # a velocity in another unit
+        unused = aside or bool(r.get("velocity_set_aside"))   # ... or another joint type's
         taken = ", ".join(f"{c!r} as {WHAT.get(role, 'time')}" for role, c in r["columns_by_name"].items()
-                          if not (aside and role == "qd"))
+                          if not (unused and role == "qd"))
         of_joint = f"joint {r['joint']['label']}'s columns " if r.get("joint") else ""
         out.append(BY_NAME_WARNING.format(taken=of_joint + taken))
         if aside:

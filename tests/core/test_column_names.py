@@ -145,6 +145,7 @@ def test_a_velocity_unit_of_the_other_joint_type_is_never_read_as_this_ones(tmp_
     assert doc["input"]["velocity_from"] == "q" and "velocity" not in doc["units"]["conversions"], doc["input"]
     assert any("the velocity was taken from the position: the column 'speed [rpm]' is in rpm" in w
                for w in doc["warnings"]), doc["warnings"]
+    assert not any("'speed [rpm]' as velocity" in w for w in doc["warnings"]), doc["warnings"]
     assert abs(doc["parameters"]["Fc"] / spec.friction.Fc - 1) < 0.05, doc["parameters"]
     with pytest.raises(InputError, match=r"velocity column is in rpm, not a unit for a prismatic joint .*; "
                                          r"give it in one of them, or leave qd out$"):
