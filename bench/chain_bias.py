@@ -14,7 +14,9 @@ joined to each standard error.  Measured on the independent simulator (tuning se
 the linear stage Fc -0.6/-0.3/-0.5/-0.8 % against -0.4/-0.5/-1.1/-1.0 %; the rotary motor at
 2 ms Fs -1.3/+1.0 % against -1.3/-1.3 %, at 4 ms Fs -6.8/-8.8/-6.0/-11.4 % against
 -6.4/-4.4/-0.4/-2.0 % (the drive's torque staircase, which the twin does not replay, is the
-rest); j3, whose chain is benign, moved under 0.5 %.  The move is not subtracted: where it is
+rest); j3, whose chain is benign, moved under 0.5 %.  Fresh seeds 10252-10255 (the linear
+stage, ``tests/diagnosis/test_chain_bias.py``): Fs 3.7-5.1 noise-only errors off, 0.6-0.9 of
+the joined ones.  The move is not subtracted: where it is
 large the fit lies in a valley (Fc against alpha) and the twin's refit walks it further than
 the record's bias goes (Fc -48 % against -22 %), so it is an uncertainty, not a correction.
 """
