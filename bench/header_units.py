@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 
 from bench.errors import InputError
-from bench.units import KNOWN, SI, TABLES, VELOCITY_BY_TYPE, base_unit, factor_of, normalise
+from bench.units import KNOWN, SI, TABLES, VELOCITY_BY_TYPE, factor_of, normalise
 
 # "name [unit]", "name (unit)" or "name/unit" at the end of a column name
 _BRACKETED = re.compile(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$")
@@ -74,7 +74,7 @@ def _joint_types(units: dict, speed: str | None) -> dict:
         kinds = [jt for jt, known in TABLES[role].items() if factor_of(units.get(role) or "", known)]
         if len(kinds) == 1:
             out[f"{role} in {units[role]}"] = kinds[0]
-    if not out and speed and base_unit(speed) in VELOCITY_BY_TYPE["prismatic"]:
+    if not out and speed and factor_of(speed, VELOCITY_BY_TYPE["prismatic"]):
         out[f"qd in {speed}"] = "prismatic"
     return out
 

@@ -116,7 +116,7 @@ def to_si(rec: Record, name: str) -> None:
                     rec.qd = rec.qd * factor
             else:
                 rec.tau = rec.tau * factor
-    if own and rec.qd is not None and base_unit(own[0]) not in VELOCITY_BY_TYPE[jt]:
+    if own and rec.qd is not None and not factor_of(own[0], VELOCITY_BY_TYPE[jt]):
         # a motor's rpm beside a ball screw's mm: no factor makes it this joint's velocity
         by_name = rec.reading.get("columns_by_name", {}).get("qd")
         if by_name is None or rec.reading.get("position_from") == "qd":
@@ -135,15 +135,10 @@ def to_si(rec: Record, name: str) -> None:
 
 # A velocity column's own unit, stated in its header ("speed [rpm]", "dq [deg/s]", "v_mm_s"):
 # it was scaled by the position's factor, so a drive's rpm beside its degrees was refused
-VELOCITY_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": math.pi / 30.0, "rev/s": 2.0 * math.pi,
-                  "m/s": 1.0, "mm/s": 1e-3, "um/s": 1e-6}
-VELOCITY_BY_TYPE = {"revolute": ("rad/s", "deg/s", "rpm", "rev/s"), "prismatic": ("m/s", "mm/s", "um/s")}
-
-
-def base_unit(unit: str) -> str:
-    """"0.5*rad/s" -> "rad/s": the unit a scale multiplies."""
-    m = _SCALED.match(normalise(unit))
-    return normalise(m.group(2)) if m else normalise(unit)
+# by joint type, as the position's and torque's (a motor's rpm is no carriage's velocity)
+VELOCITY_BY_TYPE = {"revolute": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": math.pi / 30.0, "rev/s": 2.0 * math.pi},
+                    "prismatic": {"m/s": 1.0, "mm/s": 1e-3, "um/s": 1e-6}}
+VELOCITY_UNITS = {**VELOCITY_BY_TYPE["revolute"], **VELOCITY_BY_TYPE["prismatic"]}
 
 
 def _other_type(unit: str, table: dict, jt: str) -> str:
@@ -151,7 +146,7 @@ def _other_type(unit: str, table: dict, jt: str) -> str:
     (a linear axis read as the default revolute one), not the unit."""
     other = next(t for t in JOINT_TYPES if t != jt)
     return f"; it is one for a {other} joint: give --joint-type {other} if the joint is one" \
-        if base_unit(unit) in table[other] else ""
+        if factor_of(unit, table[other]) else ""
 
 
 _VELOCITY_ALIASES = {"°/s": "deg/s", "1/min": "rpm", "r/min": "rpm", "rev/min": "rpm", "min^-1": "rpm",
