@@ -16,7 +16,7 @@ from functools import lru_cache
 
 # CLI option -> (query parameter, a value of it as messages write one: a placeholder or a real one)
 _NUMBER = r"[-+]?\d[\d.eE+-]*"
-_UNIT = r"\S*\*\S+|rad|deg|rev|m|mm|um|N\*m|mN\*m|kN\*m|N\*mm|N|mN|kN"
+_UNIT = r"\S*\*\S+|rad|deg|rev|m|mm|um|N|mN|kN"     # K*UNIT covers N*m and its kin
 PARAMETERS = {
     "columns": ("columns", r"[a-z]+=.+"),
     "joint": ("joint", r"N|NAME|<joint>|'[^']*'|\d+"),
