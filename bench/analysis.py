@@ -200,6 +200,10 @@ def analyze_record(rec: Record, inertia: float | str | None = None, add: list[st
     """Identify; then add the effects in ``add`` (forced, one step each) or, without
     ``add`` and unless ``diagnose_effects`` is False, the significant ones the diagnosis finds.
     ``inertia`` "estimate" (or the record's metadata saying so): read off the record."""
+    from bench.friction_map import FrictionMap
+    if isinstance(rec, FrictionMap):   # a row per steady speed (bench.map_analysis)
+        from bench.map_analysis import analyze_map
+        return analyze_map(rec, add, diagnose_effects, name)
     if add:  # validate names before spending time on a fit
         from bench.effects import get
         for n in add:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import column_names, header_units, joint_columns, own_times, position_from_velocity, split_stamps
+from bench import column_names, friction_map, header_units, joint_columns, own_times, position_from_velocity, split_stamps
 from bench.coarse_time import spread
 from bench.containers import strip_suffix, unwrap
 from bench.counters import unwrap_counter
@@ -118,6 +118,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):
         mapping["t"] = stamp     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
+    if friction_map.is_map(mapping, names, meta, sample_rate is not None, bool(given)):
+        return _map(table, mapping, meta, dict(opts, window=window), units_row, name, fmt, explicit, wrapped)
     rate = sample_rate_of(sample_rate, meta, mapping, names, name, plain=fmt != "mat" and not given)
     if rate is not None:
         mapping.pop("t", None)
@@ -181,6 +183,18 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     if own:
         rec.reading["own_times"] = own
     return _finish(rec, name, fmt, opts, span, wrapped)
+
+
+def _map(table, mapping, meta, opts, units_row, name, fmt, explicit, wrapped) -> "friction_map.FrictionMap":
+    """A velocity and a torque and nothing else: a friction-velocity map (bench.friction_map)."""
+    keys = {r: _column_key(table, mapping[r], r, name, explicit=explicit) for r in ("qd", "tau")}
+    values = {r: _numeric(_column(table, k), k, name) for r, k in keys.items()}
+    units = {r: units_row.get(k) or header_units.unit_in_name(str(k)) or column_names.suffix_unit(k, r)
+             for r, k in keys.items()}
+    meta_units = {k: meta[k] for k in ("joint_type", "torque_unit") if k in meta}
+    return friction_map.build(values["qd"], values["tau"], units, keys, meta,
+                              {**meta_units, **{k: v for k, v in opts.items() if v is not None}},
+                              name, fmt, wrapped)
 
 
 def _finish(rec: Record, name, fmt, opts: dict, span=None, wrapped: dict | None = None) -> Record:

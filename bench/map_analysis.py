@@ -1,0 +1,233 @@
+"""``bench analyze`` of a friction-velocity map: the fit, the diagnosis and the report
+(``bench.map_fit`` holds the statistics).  The report keeps the time record's keys where they
+mean the same (parameters, uncertainty, identifiable, baseline, final, diagnosis, unexplained,
+warnings, input, units); ``record`` is "friction_map"."""
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+
+from bench import map_fit as mf
+from bench.errors import InputError
+from bench.friction_map import FrictionMap
+from bench.diagnosis import MIN_EFFECT
+from bench.unexplained import MIN_SIZE, decays, rising_map
+
+EVIDENCE = {
+    "torque_offset": lambda val, u: f"a constant bias of {val['offset']:+.4g} {u} in both directions",
+    "direction_asymmetry": lambda val, u: (f"friction levels depend on the direction: Coulomb level "
+                                           f"{val['Fc'] * (1 + val['asym']):.4g} {u} for positive and "
+                                           f"{val['Fc'] * (1 - val['asym']):.4g} {u} for negative velocity"),
+    "stribeck_shape": lambda val, u: (f"the Stribeck dip is {'sharper' if val['delta'] > 1 else 'more gradual'} "
+                                      f"than exp(-alpha|v|): exponent delta ~ {val['delta']:.2f}"),
+}
+
+
+class MapAnalysis:
+    def __init__(self, m: FrictionMap, add: list[str] | None, diagnose: bool, name: str):
+        self.m, self.name = m, name
+        v, F = m.v, m.F
+        self.warnings = list(m.reading.get("warnings", []))
+        self.baseline, self.rise_p = mf.rising(v, F, mf.fit(v, F))
+        self.baseline_cv = _rms(F - mf.cv_prediction(v, F, self.baseline))
+        self.steps: list[dict] = []
+        cur, cur_cv = self.baseline, self.baseline_cv
+        if add:
+            for e in add:
+                why = mf.applies(e, m, cur)
+                if why:
+                    raise InputError(f"{name}: effect {e} cannot be read off this map: {why}")
+            for e in add:     # forced, one step each, as on a record in time
+                cur, cur_cv = self._step(cur, cur_cv, e, forced=True)
+        elif diagnose:
+            while True:
+                trials = [self._trial(cur, cur_cv, e) for e in mf.CONTENDERS
+                          if e not in cur.model.effects and not mf.applies(e, m, cur)]
+                credited = sorted((t for t in trials if t["credit"]), key=lambda t: t["gain"], reverse=True)
+                if not credited:
+                    break
+                best = credited[0]
+                close = [t["effect"] for t in credited[1:] if t["gain"] >= mf.CLOSE * best["gain"]]
+                self.steps.append(self._entry(best, close))
+                cur, cur_cv = best["fit"], best["cv"]
+        self.final, self.final_cv = cur, cur_cv
+        self.left = mf.lack_of_fit(v, cur.resid, cur.p)
+        if not mf.both_directions(v):
+            self.warnings.append("the map holds one direction only: an offset or a direction asymmetry cannot be "
+                                 "told from the friction levels; record both directions")
+
+    def _trial(self, cur: mf.Fit, cur_cv: float, effect: str) -> dict:
+        v, F = self.m.v, self.m.F
+        big = mf.fit(v, F, cur.model.effects + (effect,), start=dict(cur.values), flat=cur.model.flat)
+        cv = _rms(F - mf.cv_prediction(v, F, big))
+        p = mf.f_test(cur, big)
+        peak = mf.term_peak(v, big, effect)
+        scale = abs(big.values["Fc"]) or 1.0
+        credit = (p < mf.P_CREDIT and cv < (1 - mf.MIN_CV_DROP) * cur_cv and peak >= MIN_EFFECT * scale
+                  and (effect != "stribeck_shape" or decays(big.values)))
+        return {"effect": effect, "fit": big, "cv": cv, "p": p, "peak": peak, "before": cur_cv,
+                "gain": cur.ssr - big.ssr, "credit": credit}
+
+    def _step(self, cur, cur_cv, effect, forced):
+        t = self._trial(cur, cur_cv, effect)
+        self.steps.append(self._entry(t, []))
+        return t["fit"], t["cv"]
+
+    def _entry(self, t: dict, close: list) -> dict:
+        u = self.m.units[1]
+        explained = 1.0 - (t["cv"] / t["before"]) ** 2 if t["before"] > 0 else 0.0
+        text = (f"{EVIDENCE[t['effect']](t['fit'].values, u)}; explains {100 * max(explained, 0):.0f} % of the "
+                f"cross-validated residual variance (F test p = {t['p']:.2g})")
+        if close:
+            text += (f"; a close call: {', '.join(close)} fits nearly as well (on a map an offset and a direction "
+                     f"asymmetry differ only by how the dip scales: check the runner-up too)")
+        return {"effect": t["effect"], "significant": bool(t["credit"]), "rms_before": t["before"],
+                "rms_after": t["cv"], "p_value": t["p"], "evidence": text,
+                "values": {k: t["fit"].values[k] for k in _effect_keys(t["effect"])}}
+
+    # --- the report ----------------------------------------------------------------------
+    def report(self) -> dict:
+        m, base, final = self.m, self.baseline, self.final
+        se = final.stderr()
+        values = {k: final.values[k] for k in ("Fc", "Fs", "alpha", "sigma2")}
+        u_v, u_t = m.units
+        scale = abs(values["Fc"]) or 1.0
+        significant = self.left["p_value"] < mf.P_LEFT
+        bent = None
+        if self.rise_p is not None:     # the rise fits significantly better than no dip at all
+            bent = (rising_map(values, se, degenerate=True)
+                    or f"the fitted friction rises from rest (Fs = {values['Fs'] / values['Fc']:.2f} Fc), which LuGre's "
+                       f"Stribeck decay cannot describe: LuGre was bent to absorb a velocity dependence of another shape, "
+                       f"and its Fc and sigma2 are biased")
+            bent += f" (F test against a map without a dip: p = {self.rise_p:.2g})"
+        structured = bool(bent) or (significant and self.left["systematic_rms"] >= MIN_SIZE * scale)
+        effects = [s["effect"] for s in self.steps if s["significant"]]
+        warnings = self.warnings + [f"sigma0 and sigma1 are not identified: {mf.NOT_FROM_A_MAP}"]
+        known = mf.identifiable(values, se)
+        if final.model.flat:
+            warnings.append("the map shows no Stribeck dip (Fs = Fc fits as well): Fs and alpha are not identifiable; "
+                            "read Fc as the friction level")
+        speeds = np.abs(m.v)
+        if values["alpha"] * speeds.min() > mf.DIP_BELOW and not final.model.flat:
+            known.update(Fs=False, alpha=False)
+            warnings.append(f"the map's slowest speed, {speeds.min():.3g} {u_v}, lies {values['alpha'] * speeds.min():.1f}/alpha "
+                            f"into the Stribeck dip: Fs is extrapolated to rest along the dip's assumed shape, not read "
+                            f"off the map; record slower speeds")
+        if values["alpha"] * speeds.max() < mf.DIP_BELOW and not final.model.flat:
+            known.update(Fc=False, alpha=False)
+            warnings.append(f"the Stribeck dip has not settled at the map's fastest speed, {speeds.max():.3g} {u_v}: Fc is "
+                            f"extrapolated beyond every point; record faster speeds")
+        for k in ("Fc", "Fs", "alpha", "sigma2"):
+            if not known[k]:
+                warnings.append(f"{k} is not identifiable from this map (standard error "
+                                f"{se.get(k, float('nan')):.3g} against {values[k]:.4g})")
+        return {
+            "record": "friction_map",
+            "parameters": values,
+            "uncertainty": {k: se[k] for k in values},
+            "identifiable": known,
+            "not_identified": {"sigma0": mf.NOT_FROM_A_MAP, "sigma1": mf.NOT_FROM_A_MAP},
+            "section3_estimates": _eq8(m.v, m.F),
+            "fit": {"rms_error": _rms(final.resid), "nrmse": _rms(final.resid) / (np.ptp(m.F) or 1.0),
+                    "fit_percent": 100.0 * (1.0 - _rms(final.resid) / (np.std(m.F) or 1.0)),
+                    "points": final.n},
+            "baseline": {"parameters": {k: base.values[k] for k in values}, "rms_error": self.baseline_cv,
+                         "start": "map_fit", "scored": "cross-validated over interleaved speeds"},
+            "final": {"effects": effects, "rms_error": self.final_cv,
+                      "values": {k: final.values[k] for e in effects for k in _effect_keys(e)}},
+            "diagnosis": self.steps,
+            "unexplained": {"structured": structured, "evidence": bent or self._left_text(structured, scale),
+                            "test": self.left},
+            "warnings": warnings,
+            "input": {"format": m.reading.get("format"), "record": "friction_map",
+                      "columns": m.reading.get("columns"), "points": final.n,
+                      "rows_at_rest": m.reading.get("rows_at_rest", 0), "rows_lost": m.reading.get("rows_lost", 0),
+                      "directions": int(np.any(m.v > 0)) + int(np.any(m.v < 0)),
+                      "speed_range": [float(np.abs(m.v).min()), float(np.abs(m.v).max())],
+                      "units": {"velocity": u_v, "torque": u_t}},
+            "units": {"conversions": m.reading.get("units", {})},
+        }
+
+    def _left_text(self, structured: bool, scale: float) -> str:
+        left, u = self.left, self.m.units[1]
+        size = f"{left['systematic_rms']:.3g} {u} ({100 * left['systematic_rms'] / scale:.1f} % of Fc)"
+        test = f"{left['method']}, p = {left['p_value']:.2g}"
+        if structured:
+            r, v = self.final.resid, self.m.v
+            worst = v[np.argmax(np.abs(r))]
+            return (f"the map keeps a structure no library effect explains: {size} systematic ({test}); the model "
+                    f"misses most at {worst:.4g} {self.m.units[0]} -- physics of the speed outside the library "
+                    f"(a viscous term not linear in the speed, a second Stribeck regime)")
+        return f"nothing left to explain: what the model leaves is {size} systematic ({test})"
+
+    def write_residuals(self, path: Path) -> None:
+        """velocity, measured, baseline, final, held_out (every point is scored in one fold)."""
+        v, F = self.m.v, self.m.F
+        table = np.column_stack([v, F, mf.friction(v, self.baseline.values), mf.friction(v, self.final.values),
+                                 np.ones_like(v)])
+        np.savetxt(path, table, delimiter=",", header="velocity,measured,baseline,final,held_out",
+                   comments="", fmt="%.9g")
+
+    def write_plots(self, directory: Path) -> list[Path]:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        directory.mkdir(parents=True, exist_ok=True)
+        v, F = self.m.v, self.m.F
+        grid = np.concatenate([-np.geomspace(np.abs(v).max(), np.abs(v).min(), 200),
+                               np.geomspace(np.abs(v).min(), np.abs(v).max(), 200)])
+        grid = grid[(grid >= v.min()) & (grid <= v.max())]
+        fig, (a, b) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+        a.plot(v, F, "k.", label="measured")
+        a.plot(grid, mf.friction(grid, self.baseline.values), "-", label="LuGre steady state")
+        if self.final is not self.baseline:
+            a.plot(grid, mf.friction(grid, self.final.values), "--", label="with " + ", ".join(self.final.model.effects))
+        a.set_ylabel(f"friction [{self.m.units[1]}]")
+        a.legend()
+        b.plot(v, self.final.resid, "k.")
+        b.axhline(0.0, color="grey", lw=0.5)
+        b.set_xlabel(f"velocity [{self.m.units[0]}]")
+        b.set_ylabel("residual")
+        out = directory / "friction_map.png"
+        fig.savefig(out, dpi=100)
+        plt.close(fig)
+        return [out]
+
+    def write_html(self, path: Path) -> None:
+        doc = self.report()
+        plots = self.write_plots(path.parent / (path.stem + "_plots"))
+        rows = "".join(f"<tr><td>{k}</td><td>{val:.6g}</td><td>{doc['uncertainty'][k]:.3g}</td></tr>"
+                       for k, val in doc["parameters"].items())
+        items = "".join(f"<li>{html.escape(d['effect'])}: {html.escape(d['evidence'])}</li>" for d in doc["diagnosis"])
+        path.write_text(
+            f"<!doctype html><meta charset=utf-8><title>{html.escape(self.name)}</title>"
+            f"<h1>Friction-velocity map: {html.escape(self.name)}</h1>"
+            f"<table><tr><th>parameter</th><th>value</th><th>std. error</th></tr>{rows}</table>"
+            f"<ul>{items}</ul><p>{html.escape(doc['unexplained']['evidence'])}</p>"
+            + "".join(f"<p>{html.escape(w)}</p>" for w in doc["warnings"])
+            + "".join(f'<img src="{html.escape(p.parent.name + "/" + p.name)}" alt="map">' for p in plots))
+
+
+def analyze_map(m: FrictionMap, add: list[str] | None = None, diagnose_effects: bool = True,
+                name: str = "map") -> MapAnalysis:
+    return MapAnalysis(m, add, diagnose_effects, name)
+
+
+def _effect_keys(effect: str) -> tuple:
+    return {"torque_offset": ("offset",), "direction_asymmetry": ("asym",), "stribeck_shape": ("delta",)}[effect]
+
+
+def _rms(x) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if len(x) else 0.0
+
+
+def _eq8(v, F) -> dict:
+    """Section III on a map: Fc and sigma2 from the line through the faster half of the speeds
+    (eq. 8, both directions folded), Fs from the slowest speeds' level."""
+    speed, level = np.abs(v), np.sign(v) * F
+    fast = speed >= np.median(speed)
+    slope, icpt = np.polyfit(speed[fast], level[fast], 1)
+    slow = speed <= np.quantile(speed, 0.1)
+    return {"Fc": float(icpt), "sigma2": float(slope), "Fs": float(np.mean(level[slow]))}
