@@ -216,6 +216,9 @@ def analyze(
 
 
 def _print_report(doc: dict) -> None:
+    if doc.get("record") == "friction_map":     # bench.friction_map
+        out.print(f"read as a friction-velocity map: {doc['input']['points']} points at steady speeds "
+                  f"(no time, no position)", markup=False, highlight=False)
     t = Table(title="Identified LuGre model", show_lines=False)
     for col in ("parameter", "value", "std. error", "identifiable"):
         t.add_column(col)

@@ -48,9 +48,17 @@ REPEAT = 0.005
 # alpha's search: from a decay ten times slower than the fastest speed to one ten times faster
 # than the slowest (a dip wholly below the map's speeds is not in it: the report says so)
 ALPHA_SPAN = 10.0
+# The across-speeds test trusts a map's points to no better than this share of Fc: plateau
+# averages keep the loop's and the logger's small systematic errors (0.1-0.3 % of Fc on the
+# independent simulator's clean maps), which the Fc-alpha valley amplifies in extrapolation.
+# Tuning seeds 20000, 20001, 20030 (six joints; clean, offset, asymmetry, 1 and 2 sweeps):
+# the rotary motor's clean map failed at 0.1 % (p 1e-9), all passed from 0.2 %; viscous
+# friction like |v|^0.5 (20010-20015) still failed on 2 of the 4 the rising-map rule misses.
+ACROSS_FLOOR = 0.003
 # Where the fitted Stribeck term has decayed to exp(-1) at the slowest speed, Fs is read off
-# the dip's assumed shape below every point, not off the map: not identifiable.  Tuning seed
-# 20000 (j1, a Gaussian dip the map starts 1.5/alpha into): Fs +27 % at 7 % standard error
+# the dip's assumed shape below every point, not off the map: not identifiable.  Tuning seeds
+# 20000-20001 (j1 with a Gaussian dip, its slowest speed 1.06/alpha into it, fitted 2.6):
+# Fs +27 % at a standard error of 3-7 %
 DIP_BELOW = 1.0
 NOT_FROM_A_MAP = ("a steady-state map holds no presliding: the bristles' stiffness sigma0 and damping "
                   "sigma1 (eq. 10) need a record in time through the reversals, such as the paper's torque sine")
@@ -128,16 +136,25 @@ class Fit:
 
 
 def fit(v: np.ndarray, F: np.ndarray, effects: tuple = (), start: dict | None = None,
-        flat: bool = False) -> Fit:
-    """Least squares of the map with ``effects``, from ``start`` or from the alpha grid;
-    ``flat``: without a dip (Fs = Fc)."""
+        flat: bool = False, cv_only: bool = False) -> Fit:
+    """Least squares of the map with ``effects``, from ``start`` and from the alpha grid
+    (only from ``start`` with ``cv_only``: a fold refitted near the full fit); ``flat``:
+    without a dip (Fs = Fc)."""
     model = MapModel(effects, flat, alpha=(start or {}).get("alpha", 1.0))
-    x0 = model.vector(start) if start is not None else model.vector(_grid_start(v, F, effects))
     lo, hi = model.bounds(v)
-    x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
-    res = optimize.least_squares(lambda x: friction(v, model.values(x)) - F, x0, bounds=(lo, hi),
-                                 x_scale="jac", method="trf", max_nfev=400)
-    return Fit(model, res.x, v, F, res.jac)
+    best = None
+    # from the given values and, for a new model, from the grid too: an effect added to a
+    # fit that bent to absorb it stays in that basin (j4's asymmetric map fitted an offset
+    # with alpha 9x off from the symmetric fit's values, tuning seed 20030)
+    starts = [start] if cv_only and start is not None else ([start] if start is not None else []) + [None]
+    for s in starts:
+        x0 = model.vector(s if s is not None else _grid_start(v, F, effects))
+        x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
+        res = optimize.least_squares(lambda x: friction(v, model.values(x)) - F, x0, bounds=(lo, hi),
+                                     x_scale="jac", method="trf", max_nfev=400)
+        if best is None or res.cost < best.cost:
+            best = res
+    return Fit(model, best.x, v, F, best.jac)
 
 
 def _grid_start(v, F, effects) -> dict:
@@ -145,19 +162,23 @@ def _grid_start(v, F, effects) -> dict:
     spanning the map's speeds solved exactly, the best kept."""
     speeds = np.abs(v)
     alphas = np.geomspace(1.0 / (ALPHA_SPAN * speeds.max()), ALPHA_SPAN / speeds.min(), 60)
-    offset = "torque_offset" in effects
+    offset, asym = "torque_offset" in effects, "direction_asymmetry" in effects
     best = None
     for a in alphas:
         e = np.exp(-a * speeds)
-        cols = [np.sign(v) * (1 - e), np.sign(v) * e, v] + ([np.ones_like(v)] if offset else [])
+        cols = [np.sign(v) * (1 - e), np.sign(v) * e, v]
+        cols += [np.ones_like(v)] if offset else []
+        cols += [1 - e, e] if asym else []       # a s(v): linear in a Fc and a Fs
         A = np.column_stack(cols)
         coef, *_ = np.linalg.lstsq(A, F, rcond=None)
         r = F - A @ coef
         if best is None or r @ r < best[0]:
             best = (float(r @ r), a, coef)
     _, a, coef = best
-    out = {"Fc": coef[0], "Fs": coef[1], "alpha": a, "sigma2": coef[2], "delta": 1.0, "asym": 0.0,
-           "offset": coef[3] if offset else 0.0}
+    out = {"Fc": max(coef[0], 0.0), "Fs": max(coef[1], 0.0), "alpha": a, "sigma2": max(coef[2], 0.0),
+           "delta": 1.0, "asym": 0.0, "offset": coef[3] if offset else 0.0}
+    if asym and abs(coef[0]) > 0:
+        out["asym"] = float(np.clip(coef[-2] / coef[0], -0.8, 0.8))
     return out
 
 
@@ -177,7 +198,7 @@ def cv_prediction(v, F, full: Fit) -> np.ndarray:
         out = k == f
         if not out.any():
             continue
-        part = fit(v[~out], F[~out], full.model.effects, start=full.values, flat=full.model.flat)
+        part = fit(v[~out], F[~out], full.model.effects, start=full.values, flat=full.model.flat, cv_only=True)
         pred[out] = friction(v[out], part.values)
     return pred
 
@@ -265,3 +286,44 @@ def term_peak(v, with_effect: Fit, effect: str) -> float:
 
 def identifiable(values: dict, se: dict) -> dict:
     return {k: is_identifiable(values[k], se.get(k)) for k in ("Fc", "Fs", "alpha", "sigma2")}
+
+
+def across_speeds(v: np.ndarray, F: np.ndarray, final: Fit, floor: float | None = None) -> dict:
+    """The model's shape judged where it was not fitted: fitted on the slower two thirds of the
+    speeds it predicts the fastest third, and fitted on the faster two thirds the slowest
+    third.  Each miss is weighed by its own prediction variance (the part fit's covariance
+    carried to the held-out speeds, plus the points' scatter), so a model that is merely
+    uncertain there passes and one of the wrong shape does not: chi-square, Bonferroni over
+    the two directions of extrapolation.  Interleaved folds test only interpolation, which a
+    bent LuGre map passes (viscous friction like |v|^0.5 read as Fc 30-50 % high with 0.3-0.5 %
+    of Fc left: tuning seeds 20011, 20014, 20015)."""
+    speed = np.abs(v)
+    lo_cut, hi_cut = np.quantile(speed, [1 / 3, 2 / 3])
+    worst = {"p_value": 1.0, "miss_rms": 0.0, "held_out": ""}
+    for fitted, held, name in ((speed <= hi_cut, speed > hi_cut, "fastest"), (speed >= lo_cut, speed < lo_cut, "slowest")):
+        if held.sum() < 3 or fitted.sum() < final.p + 3:
+            continue
+        part = fit(v[fitted], F[fitted], final.model.effects, start=final.values, flat=final.model.flat, cv_only=True)
+        s2 = max(part.ssr / part.dof, ((ACROSS_FLOOR if floor is None else floor) * final.values["Fc"]) ** 2)
+        cov = s2 * np.linalg.pinv(part.jac.T @ part.jac)
+        J = _jacobian(part, v[held])
+        var = np.einsum("ij,jk,ik->i", J, cov, J) + s2
+        miss = F[held] - friction(v[held], part.values)
+        chi2 = float(np.sum(miss ** 2 / var))
+        p = min(1.0, 2.0 * float(stats.chi2.sf(chi2, int(held.sum()))))
+        if p < worst["p_value"]:
+            worst = {"p_value": p, "miss_rms": float(np.sqrt(max(np.mean(miss ** 2) - s2, 0.0))), "held_out": name,
+                     "chi2": chi2, "points": int(held.sum())}
+    return worst
+
+
+def _jacobian(f: Fit, v: np.ndarray) -> np.ndarray:
+    """d friction(v) / dx at ``f``'s values, by central differences."""
+    out = np.empty((len(v), len(f.x)))
+    for k in range(len(f.x)):
+        h = 1e-6 * max(abs(f.x[k]), 1e-3)
+        up, dn = f.x.copy(), f.x.copy()
+        up[k] += h
+        dn[k] -= h
+        out[:, k] = (friction(v, f.model.values(up)) - friction(v, f.model.values(dn))) / (2 * h)
+    return out

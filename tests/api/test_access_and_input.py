@@ -343,3 +343,26 @@ def test_serve_refuses_a_bad_rt_priority_before_touching_anything(tmp_path):
                         "--port", str(free_port())], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and r.stderr.strip() == "error: rt_priority must be 0 (off) to 98, got 99", r.stderr
     assert "Traceback" not in r.stderr and not data.exists()
+
+
+def test_analyze_a_friction_velocity_map(operator):
+    """A table of speed and friction (no time, no position) is analysed as a map; an effect
+    that needs the record in time is a one-line 422."""
+    import numpy as np
+
+    from bench.lugre import LuGreParams
+    rng = np.random.default_rng(10271)
+    p = LuGreParams(3.0, 4.2, 8.0, 0.0, 0.0, 1.5)
+    speeds = np.geomspace(0.02, 3.0, 10)
+    v = np.concatenate([speeds, -speeds])
+    F = p.steady_state(v) + 0.4 + rng.normal(0.0, 0.005, len(v))      # a 0.4 N*m offset
+    text = "speed [rpm],torque [N*m]\n" + "\n".join(f"{a * 30 / np.pi:.6g},{b:.6g}" for a, b in zip(v, F))
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"}, timeout=60)
+    assert r.status_code == 200, r.text
+    doc = r.json()
+    assert doc["record"] == "friction_map" and doc["units"]["conversions"]["velocity"]["from"] == "rpm"
+    assert [d["effect"] for d in doc["diagnosis"] if d["significant"]] == ["torque_offset"], doc["diagnosis"]
+    assert doc["parameters"]["Fc"] == pytest.approx(3.0, rel=0.03)
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"}, params={"add": "cogging"},
+                      timeout=60)
+    assert r.status_code == 422 and "friction-velocity map" in r.json()["detail"], r.text

@@ -1,0 +1,140 @@
+"""A friction-velocity map read and analysed end to end (``bench.friction_map``,
+``bench.map_fit``, ``bench.map_analysis``): maps as a lab makes them from the independent
+simulator's PID velocity sweeps (``tests.map_records``), fresh seeds 10261-10270 (tuning was on
+20000-20025), joints and noise the thresholds were not chosen on among them."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bench.analysis import analyze_record
+from bench.readers import read_record
+from tests.map_records import swept_map, write_map
+from virtual_drives.presets import PRESETS
+
+
+def _bench(*args):
+    return subprocess.run([sys.executable, "-m", "bench.cli", *map(str, args)], capture_output=True, text=True)
+
+
+def _doc(path, **kw):
+    return analyze_record(read_record(path, **kw), name=str(path)).report()
+
+
+def test_a_clean_map_in_degrees_is_identified_with_nothing_named_or_left(tmp_path):
+    spec = PRESETS["j2"]
+    v, F = swept_map(spec, 10261, felt=False)
+    path = tmp_path / "j2_map.csv"
+    write_map(path, np.degrees(v), F, header=("speed [deg/s]", "friction torque [N*m]"))
+    out = tmp_path / "res.csv"
+    r = _bench("analyze", path, "--json", tmp_path / "doc.json", "--residuals", out)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "doc.json").read_text())
+    assert doc["record"] == "friction_map" and doc["input"]["points"] == len(v)
+    assert doc["units"]["conversions"]["velocity"]["from"] == "deg/s"
+    f = spec.friction
+    for k in ("Fc", "Fs", "sigma2"):
+        assert abs(doc["parameters"][k] / getattr(f, k) - 1) < 0.02, (k, doc["parameters"])
+        assert doc["identifiable"][k]
+    assert not [d for d in doc["diagnosis"] if d["significant"]], doc["diagnosis"]
+    assert not doc["unexplained"]["structured"], doc["unexplained"]
+    assert set(doc["not_identified"]) == {"sigma0", "sigma1"}
+    table = np.genfromtxt(out, delimiter=",", names=True)
+    assert table.dtype.names == ("velocity", "measured", "baseline", "final", "held_out")
+    assert np.allclose(table["measured"], F) and np.allclose(table["velocity"], v, rtol=1e-6)
+
+
+@pytest.mark.parametrize("joint, seed, physics, effect", [
+    ("j1", 10262, dict(constant=0.2), "torque_offset"),
+    ("linear", 10263, dict(asym=0.12), "direction_asymmetry"),
+    ("j3", 10264, dict(stribeck_delta=2.0), "stribeck_shape"),
+    ("rotary", 10265, dict(constant=-0.15), "torque_offset"),
+])
+def test_a_library_effect_on_a_map_is_named_and_nothing_is_left(tmp_path, joint, seed, physics, effect):
+    spec = PRESETS[joint]
+    f = spec.friction
+    physics = {k: (val * f.Fc if k == "constant" else val) for k, val in physics.items()}
+    v, F = swept_map(spec, seed, physics=physics, felt=seed % 2 == 0)
+    path = tmp_path / "map.csv"
+    write_map(path, v, F, header=("v", "tau"))
+    doc = _doc(path, columns="qd=v,tau=tau", joint_type="prismatic" if joint == "linear" else None)
+    named = [d["effect"] for d in doc["diagnosis"] if d["significant"]]
+    assert named[:1] == [effect], doc["diagnosis"]
+    assert not doc["unexplained"]["structured"], doc["unexplained"]
+    # the simulator scales the negative levels by 1 + asym: its mean level is Fc (1 + asym / 2)
+    level = f.Fc * (1 + physics.get("asym", 0.0) / 2)
+    assert abs(doc["parameters"]["Fc"] / level - 1) < 0.03, doc["parameters"]
+
+
+def test_a_map_with_a_breakaway_peak_above_rest_is_unexplained_and_nothing_credited(tmp_path):
+    """Simscape's Rotational Friction block written as a map (its own formula, not this
+    project's model): the friction rises from a Coulomb level at rest to a breakaway peak,
+    which no LuGre map does."""
+    wrong = 0
+    for seed in range(10266, 10271):
+        rng = np.random.default_rng(seed)
+        Fc = rng.uniform(1, 100)
+        Fs, vb = Fc * rng.uniform(1.2, 1.6), rng.uniform(0.01, 0.1)
+        speeds = np.geomspace(0.1 * vb, 20 * vb, 12)
+        v = np.concatenate([speeds, -speeds])
+        a = np.abs(v)
+        F = np.sign(v) * (np.sqrt(2 * np.e) * (Fs - Fc) * np.exp(-(a / (vb * np.sqrt(2))) ** 2) * a / (vb * np.sqrt(2))
+                          + Fc * np.tanh(10 * a / vb)) + rng.uniform(0.2, 1.0) * Fc / (20 * vb) * v
+        F += rng.normal(0.0, 0.002 * Fc, len(v))
+        path = tmp_path / f"map{seed}.csv"
+        write_map(path, v, F)
+        doc = _doc(path)
+        wrong += bool([d for d in doc["diagnosis"] if d["significant"]]) or not doc["unexplained"]["structured"]
+    assert wrong == 0
+
+
+def test_map_input_errors_are_one_line(tmp_path):
+    t = np.arange(4000) * 1e-3
+    trace = tmp_path / "trace.csv"       # samples in time with their times left out
+    write_map(trace, np.cos(2 * np.pi * t), np.sign(np.cos(2 * np.pi * t)) * 2.0 + np.cos(2 * np.pi * t))
+    r = _bench("analyze", trace)
+    assert r.returncode == 2 and "--sample-rate" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    spec = PRESETS["j4"]
+    v, F = swept_map(spec, 10261, felt=True)
+    path = tmp_path / "m.csv"
+    write_map(path, v, F)
+    r = _bench("analyze", path, "--add", "cogging")
+    assert r.returncode == 2 and "friction-velocity map" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    one_way = tmp_path / "one.csv"
+    write_map(one_way, v[v > 0], F[v > 0])
+    doc = _doc(one_way)
+    assert any("one direction only" in w for w in doc["warnings"])
+    assert not [d for d in doc["diagnosis"] if d["effect"] in ("torque_offset", "direction_asymmetry")]
+    few = tmp_path / "few.csv"
+    write_map(few, v[:5], F[:5])
+    r = _bench("analyze", few)
+    assert r.returncode == 2 and "at least" in r.stderr, r.stderr
+
+
+@pytest.mark.xfail(strict=True, reason="README known limits: on a map, viscous friction like |v|^0.5 is "
+                   "mostly absorbed by LuGre or a Stribeck exponent (fresh seeds: 1 of 6 flagged, 3 credited)")
+def test_viscous_friction_growing_like_a_root_of_the_speed_is_not_told_as_a_library_effect(tmp_path):
+    """Viscous friction ~ |v|^beta (beta 0.4-0.6) beside a Stribeck dip, written by its own
+    formula: LuGre bends to it (Fc 20-50 % high with well under 1 % of Fc left on interleaved
+    speeds).  Tuning seeds 20010-20015: flagged 5 of 6 by the rising-map rule or the shape
+    across speeds, nothing credited.  These fresh seeds: flagged 1 of 6, a Stribeck exponent
+    (1.2-1.9) credited on 3 with nothing left -- it did not carry over, so this stays a known
+    limit, and the test says what should hold."""
+    credited = flagged = 0
+    for seed in range(10272, 10278):
+        rng = np.random.default_rng(seed)
+        Fc = rng.uniform(1, 100)
+        Fs, vs = Fc * rng.uniform(1.1, 1.6), rng.uniform(0.01, 0.1)
+        beta, c = rng.uniform(0.4, 0.6), rng.uniform(0.5, 1.5) * Fc
+        speeds = np.geomspace(0.2 * vs, 10 * vs, 12)
+        v = np.concatenate([speeds, -speeds])
+        F = np.sign(v) * (Fc + (Fs - Fc) * np.exp(-np.abs(v) / vs) + c * (np.abs(v) / (10 * vs)) ** beta)
+        F += rng.normal(0.0, 0.002 * Fc, len(v))
+        path = tmp_path / f"root{seed}.csv"
+        write_map(path, v, F)
+        doc = _doc(path)
+        credited += bool([d for d in doc["diagnosis"] if d["significant"]])
+        flagged += doc["unexplained"]["structured"]
+    assert credited == 0 and flagged >= 4, (credited, flagged)
