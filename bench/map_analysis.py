@@ -40,7 +40,9 @@ class MapAnalysis:
         cur = dipped
         cur_cv = self.baseline_cv if cur is self.baseline else _rms(F - mf.cv_prediction(v, F, cur))
         if add:
+            from bench.effects import get
             for e in add:
+                get(e)      # an unknown name is told as such
                 why = mf.applies(e, m, cur)
                 if why:
                     raise InputError(f"{name}: effect {e} cannot be read off this map: {why}")
@@ -210,9 +212,9 @@ class MapAnalysis:
         import matplotlib.pyplot as plt
         directory.mkdir(parents=True, exist_ok=True)
         v, F = self.m.v, self.m.F
-        grid = np.concatenate([-np.geomspace(np.abs(v).max(), np.abs(v).min(), 200),
+        grid = np.concatenate([-np.geomspace(np.abs(v).max(), np.abs(v).min(), 200), [np.nan],
                                np.geomspace(np.abs(v).min(), np.abs(v).max(), 200)])
-        grid = grid[(grid >= v.min()) & (grid <= v.max())]
+        grid = grid[~((grid < v.min()) | (grid > v.max()))]      # no line through rest (NaN kept)
         fig, (a, b) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
         a.plot(v, F, "k.", label="measured")
         a.plot(grid, mf.friction(grid, self.baseline.values), "-", label="LuGre steady state")
@@ -222,7 +224,9 @@ class MapAnalysis:
         a.legend()
         b.plot(v, self.final.resid, "k.")
         b.axhline(0.0, color="grey", lw=0.5)
-        b.set_xlabel(f"velocity [{self.m.units[0]}]")
+        # speeds spanning decades: the dip near rest and the viscous line both in view
+        b.set_xscale("symlog", linthresh=float(np.abs(v).min()))
+        b.set_xlabel(f"velocity [{self.m.units[0]}] (logarithmic beyond the slowest speed)")
         b.set_ylabel("residual")
         out = directory / "friction_map.png"
         fig.savefig(out, dpi=100)
