@@ -64,6 +64,7 @@ class MapAnalysis:
         if not self.steps:
             self.final, self.final_cv = self.baseline, self.baseline_cv
         self.left = mf.lack_of_fit(v, self.final.resid, self.final.p)
+        self.spread = mf.speed_spread(v, F, self.final)
         self.across = mf.across_speeds(v, F, self.final)
         scale = abs(self.final.values["Fc"]) or 1.0
         self.shape_wrong = self.across["p_value"] < mf.P_LEFT and self.across["miss_rms"] >= MIN_SIZE * scale
@@ -86,6 +87,7 @@ class MapAnalysis:
         self.final = mf.fit(v, F, rest, start=self.final.values, flat=self.final.model.flat)
         self.final_cv = _rms(F - mf.cv_prediction(v, F, self.final))
         self.left = mf.lack_of_fit(v, self.final.resid, self.final.p)
+        self.spread = mf.speed_spread(v, F, self.final)
 
     def _trial(self, cur: mf.Fit, cur_cv: float, effect: str) -> dict:
         v, F = self.m.v, self.m.F
@@ -119,14 +121,15 @@ class MapAnalysis:
     # --- the report ----------------------------------------------------------------------
     def report(self) -> dict:
         m, base, final = self.m, self.baseline, self.final
-        se = final.stderr()
+        noise_se = final.stderr()
         values = {k: final.values[k] for k in ("Fc", "Fs", "alpha", "sigma2")}
+        se = dict(noise_se, **{k: float(np.hypot(noise_se[k], d)) for k, d in self.spread.items()})
         u_v, u_t = m.units
         scale = abs(values["Fc"]) or 1.0
         significant = self.left["p_value"] < mf.P_LEFT
         bent = None
         if self.rise_p is not None:     # the rise fits significantly better than no dip at all
-            bent = (rising_map(values, se, degenerate=True)
+            bent = (rising_map(values, noise_se, degenerate=True)
                     or f"the fitted friction rises from rest (Fs = {values['Fs'] / values['Fc']:.2f} Fc), which LuGre's "
                        f"Stribeck decay cannot describe: LuGre was bent to absorb a velocity dependence of another shape, "
                        f"and its Fc and sigma2 are biased")
@@ -135,6 +138,11 @@ class MapAnalysis:
         effects = [s["effect"] for s in self.steps if s["significant"]]
         warnings = self.warnings + [f"sigma0 and sigma1 are not identified: {mf.NOT_FROM_A_MAP}"]
         known = mf.identifiable(values, se)
+        moved = [k for k, d in self.spread.items() if d > noise_se[k] and d > 0.01 * abs(values[k])]
+        if moved:
+            warnings.append("fitted on the slower and on the faster speeds, the values move by "
+                            + ", ".join(f"{k} {100 * self.spread[k] / abs(values[k]):.1f} %" for k in moved)
+                            + ": counted in the uncertainty")
         if final.model.flat:
             warnings.append("the map shows no Stribeck dip (Fs = Fc fits as well): Fs and alpha are not identifiable; "
                             "read Fc as the friction level")
@@ -157,6 +165,7 @@ class MapAnalysis:
             "parameters": values,
             "uncertainty": {k: se[k] for k in values},
             "identifiable": known,
+            "speed_spread": self.spread,
             "not_identified": {"sigma0": mf.NOT_FROM_A_MAP, "sigma1": mf.NOT_FROM_A_MAP},
             "section3_estimates": _eq8(m.v, m.F),
             "fit": {"rms_error": _rms(final.resid), "nrmse": _rms(final.resid) / (np.ptp(m.F) or 1.0),

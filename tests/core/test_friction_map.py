@@ -113,6 +113,38 @@ def test_map_input_errors_are_one_line(tmp_path):
     assert r.returncode == 2 and "at least" in r.stderr, r.stderr
 
 
+def _root_viscous_map(seed):
+    rng = np.random.default_rng(seed)
+    Fc = rng.uniform(1, 100)
+    Fs, vs = Fc * rng.uniform(1.1, 1.6), rng.uniform(0.01, 0.1)
+    beta, c = rng.uniform(0.4, 0.6), rng.uniform(0.5, 1.5) * Fc
+    speeds = np.geomspace(0.2 * vs, 10 * vs, 12)
+    v = np.concatenate([speeds, -speeds])
+    F = np.sign(v) * (Fc + (Fs - Fc) * np.exp(-np.abs(v) / vs) + c * (np.abs(v) / (10 * vs)) ** beta)
+    return v, F + rng.normal(0.0, 0.002 * Fc, len(v)), Fc
+
+
+def test_the_speed_spread_keeps_a_bent_maps_fc_from_being_claimed(tmp_path):
+    """Where the verdict misses |v|^0.5 viscous friction, the values' move between the slower
+    and the faster speeds (``speed_spread``, joined to the standard errors) keeps Fc from being
+    reported identifiable on at least half the maps where the noise's errors alone claimed it.
+    Tuning seeds 20040-20059: 7 claimed by the noise's errors, 2 after; the bar was set from
+    those.  (Fresh seeds 10280-10319, before this test: 22 and 7 of 40.)"""
+    from bench.friction_map import build
+    from bench.map_analysis import analyze_map
+    from bench.identify import is_identifiable
+    by_noise = claimed = 0
+    for seed in range(10320, 10340):
+        v, F, _ = _root_viscous_map(seed)
+        a = analyze_map(build(v, F, {"qd": None, "tau": None}, {"qd": "v", "tau": "F"}, {}, {}, "map", "csv"))
+        doc = a.report()
+        missed = not doc["unexplained"]["structured"]
+        by_noise += missed and is_identifiable(a.final.values["Fc"], a.final.stderr()["Fc"])
+        claimed += missed and doc["identifiable"]["Fc"]
+        assert doc["speed_spread"]["Fc"] >= 0 and doc["uncertainty"]["Fc"] >= a.final.stderr()["Fc"]
+    assert by_noise > 0 and claimed <= by_noise / 2, (by_noise, claimed)
+
+
 @pytest.mark.xfail(strict=True, reason="README known limits: on a map, viscous friction like |v|^0.5 is "
                    "mostly absorbed by LuGre or a Stribeck exponent (fresh seeds: 1 of 6 flagged, 3 credited)")
 def test_viscous_friction_growing_like_a_root_of_the_speed_is_not_told_as_a_library_effect(tmp_path):
@@ -124,14 +156,7 @@ def test_viscous_friction_growing_like_a_root_of_the_speed_is_not_told_as_a_libr
     limit, and the test says what should hold."""
     credited = flagged = 0
     for seed in range(10272, 10278):
-        rng = np.random.default_rng(seed)
-        Fc = rng.uniform(1, 100)
-        Fs, vs = Fc * rng.uniform(1.1, 1.6), rng.uniform(0.01, 0.1)
-        beta, c = rng.uniform(0.4, 0.6), rng.uniform(0.5, 1.5) * Fc
-        speeds = np.geomspace(0.2 * vs, 10 * vs, 12)
-        v = np.concatenate([speeds, -speeds])
-        F = np.sign(v) * (Fc + (Fs - Fc) * np.exp(-np.abs(v) / vs) + c * (np.abs(v) / (10 * vs)) ** beta)
-        F += rng.normal(0.0, 0.002 * Fc, len(v))
+        v, F, _ = _root_viscous_map(seed)
         path = tmp_path / f"root{seed}.csv"
         write_map(path, v, F)
         doc = _doc(path)
