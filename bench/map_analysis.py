@@ -47,7 +47,7 @@ class MapAnalysis:
                 if why:
                     raise InputError(f"{name}: effect {e} cannot be read off this map: {why}")
             for e in add:     # forced, one step each, as on a record in time
-                cur, cur_cv = self._step(cur, cur_cv, e, forced=True)
+                cur, cur_cv = self._step(cur, cur_cv, e)
         elif diagnose:
             while True:
                 trials = [self._trial(cur, cur_cv, e) for e in mf.CONTENDERS
@@ -101,7 +101,7 @@ class MapAnalysis:
         return {"effect": effect, "fit": big, "cv": cv, "p": p, "peak": peak, "before": cur_cv,
                 "gain": cur.ssr - big.ssr, "credit": credit}
 
-    def _step(self, cur, cur_cv, effect, forced):
+    def _step(self, cur, cur_cv, effect):
         t = self._trial(cur, cur_cv, effect)
         self.steps.append(self._entry(t, []))
         return t["fit"], t["cv"]
