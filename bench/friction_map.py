@@ -16,7 +16,10 @@ import numpy as np
 from bench.errors import InputError
 from bench.records import JOINT_TYPES, column_index
 from bench.units import SI, TORQUE_UNITS, VELOCITY_BY_TYPE, factor_of, velocity_factor
+from bench.validate import RECORD_BOUNDS
 
+# [rad/s or m/s]: no joint's friction is mapped beyond this; a speed below the lower bound is rest
+SPEED_BOUNDS = (1e-9, 1e6)
 # Fewer points than this cannot hold LuGre's four static values and a test of what is left
 MIN_POINTS = 8
 
@@ -103,19 +106,26 @@ def build(v, F, units: dict, columns: dict, meta: dict, opts: dict, name: str, f
             warnings.append(f"--{opt.replace('_', '-')} does not apply to a friction-velocity map: ignored")
     keep = np.isfinite(v) & np.isfinite(F)
     lost = int(np.sum(~keep))
-    at_rest = int(np.sum(keep & (v == 0)))
-    keep &= v != 0
+    still = np.abs(v) < SPEED_BOUNDS[0]       # no friction test resolves a speed below it
+    at_rest = int(np.sum(keep & still))
+    keep &= ~still
     v, F = v[keep], F[keep]
     if at_rest:     # at rest the friction is anything within +-Fs: no point of the map
         warnings.append(f"{at_rest} row(s) at zero velocity left out: at rest the friction is anywhere within the breakaway level")
-    if np.mean(np.sign(v) * F) < 0:      # friction opposes the motion: this torque counts the other way
-        F = -F
-        warnings.append("the torque counts against the velocity (friction feeding energy in): analysed with its sign turned")
+    if lost:
+        warnings.append(f"{lost} row(s) with an empty or non-numeric cell left out")
     if len(v) < MIN_POINTS:
         raise InputError(f"{name}: a friction-velocity map needs at least {MIN_POINTS} points at nonzero "
                          f"speed, this one has {len(v)}")
     if np.ptp(np.abs(v)) <= 0:
         raise InputError(f"{name}: every point of the map is at one speed: record several")
+    for what, x, (lo, hi) in (("torque", F, RECORD_BOUNDS["tau"]), ("speed", v, SPEED_BOUNDS)):
+        peak = float(np.max(np.abs(x)))
+        if not lo <= peak <= hi:        # extreme numbers never reach the fit (validate.py's bounds)
+            raise InputError(f"{name}: the {what} peaks at {peak:.3g}, outside {lo:g}..{hi:g} (unit mistake?)")
+    if np.mean(np.sign(v) * F) < 0:      # friction opposes the motion: this torque counts the other way
+        F = -F
+        warnings.append("the torque counts against the velocity (friction feeding energy in): analysed with its sign turned")
     reading = {"format": fmt, "record": "friction_map", "columns": {r: str(c) for r, c in columns.items()},
                "points": int(len(v)), "rows_lost": lost, "rows_at_rest": at_rest,
                "units": conv, "warnings": warnings, **(wrapped or {})}

@@ -160,7 +160,7 @@ class MapAnalysis:
             if not known[k]:
                 warnings.append(f"{k} is not identifiable from this map (standard error "
                                 f"{se.get(k, float('nan')):.3g} against {values[k]:.4g})")
-        return {
+        return _strict({
             "record": "friction_map",
             "parameters": values,
             "uncertainty": {k: se[k] for k in values},
@@ -186,7 +186,7 @@ class MapAnalysis:
                       "speed_range": [float(np.abs(m.v).min()), float(np.abs(m.v).max())],
                       "units": {"velocity": u_v, "torque": u_t}},
             "units": {"conversions": m.reading.get("units", {})},
-        }
+        })
 
     def _left_text(self, structured: bool, scale: float) -> str:
         left, u = self.left, self.m.units[1]
@@ -266,6 +266,20 @@ def _effect_keys(effect: str) -> tuple:
     return {"torque_offset": ("offset",), "direction_asymmetry": ("asym",), "stribeck_shape": ("delta",)}[effect]
 
 
+def _strict(doc):
+    """Strict JSON: a value no fit could give (alpha's error on a map without a dip, a test
+    on too few points) is None, as the record's report writes it (``identify._finite_or_none``)."""
+    if isinstance(doc, dict):
+        return {k: _strict(x) for k, x in doc.items()}
+    if isinstance(doc, (list, tuple)):
+        return [_strict(x) for x in doc]
+    if isinstance(doc, (float, np.floating)):
+        return float(doc) if np.isfinite(doc) else None
+    if isinstance(doc, np.integer):
+        return int(doc)
+    return doc
+
+
 def _rms(x) -> float:
     return float(np.sqrt(np.mean(np.square(x)))) if len(x) else 0.0
 
@@ -275,6 +289,7 @@ def _eq8(v, F) -> dict:
     (eq. 8, both directions folded), Fs from the slowest speeds' level."""
     speed, level = np.abs(v), np.sign(v) * F
     fast = speed >= np.median(speed)
-    slope, icpt = np.polyfit(speed[fast], level[fast], 1)
+    (slope, icpt), *_ = np.linalg.lstsq(np.column_stack([speed[fast], np.ones(int(fast.sum()))]),
+                                        level[fast], rcond=None)   # one speed there: no slope, no warning
     slow = speed <= np.quantile(speed, 0.1)
     return {"Fc": float(icpt), "sigma2": float(slope), "Fs": float(np.mean(level[slow]))}

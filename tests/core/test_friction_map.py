@@ -8,6 +8,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from bench.analysis import analyze_record
 from bench.readers import read_record
@@ -111,6 +113,14 @@ def test_map_input_errors_are_one_line(tmp_path):
     write_map(few, v[:5], F[:5])
     r = _bench("analyze", few)
     assert r.returncode == 2 and "at least" in r.stderr, r.stderr
+    huge = tmp_path / "huge.csv"
+    write_map(huge, v, F * 1e300)
+    r = _bench("analyze", huge)
+    assert r.returncode == 2 and "unit mistake" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    empty = tmp_path / "empty.csv"
+    write_map(empty, v, F * np.nan)
+    r = _bench("analyze", empty)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Warning" not in r.stderr, r.stderr
 
 
 def _root_viscous_map(seed):
@@ -163,3 +173,20 @@ def test_viscous_friction_growing_like_a_root_of_the_speed_is_not_told_as_a_libr
         credited += bool([d for d in doc["diagnosis"] if d["significant"]])
         flagged += doc["unexplained"]["structured"]
     assert credited == 0 and flagged >= 4, (credited, flagged)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e5, 1e5, allow_nan=False), st.floats(-1e11, 1e11, allow_nan=False)),
+                min_size=8, max_size=40))
+def test_any_table_of_speeds_and_torques_is_refused_in_one_line_or_answered_in_strict_json(rows):
+    from bench.errors import BenchError
+    from bench.friction_map import build
+    from bench.map_analysis import analyze_map
+    v, F = (np.array(c, dtype=float) for c in zip(*rows))
+    try:
+        doc = analyze_map(build(v, F, {"qd": None, "tau": None}, {"qd": "v", "tau": "F"}, {}, {}, "m", "csv")).report()
+    except BenchError as e:
+        assert "\n" not in str(e)
+        return
+    json.dumps(doc, allow_nan=False)
+    assert all(np.isfinite(x) for x in doc["parameters"].values())
