@@ -118,7 +118,13 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     if not explicit and mapping.get("t") not in names and (stamp := split_stamps.stamp_column(names)):
         mapping["t"] = stamp     # a ROS stamp in sec + nanosec
     mapping, given = own_times.given_times(mapping, names)
-    if friction_map.is_map(mapping, names, meta, sample_rate is not None, bool(given)):
+    if explicit and not {"t", "q"} & set(mapping):    # a map's columns: a name not there is told as such
+        for role in ("qd", "tau"):
+            if role in mapping:
+                _column_key(table, mapping[role], role, name, explicit=True)
+    # a mapping that left out the time of a file that has one is refused below as before
+    if friction_map.is_map(mapping, names, meta, sample_rate is not None, bool(given)) and not (
+            explicit and column_index(column_names.default_mapping(names, ROLES, REQUIRED)[0].get("t"), names) is not None):
         return _map(table, mapping, meta, dict(opts, window=window), units_row, name, fmt, explicit, wrapped)
     rate = sample_rate_of(sample_rate, meta, mapping, names, name, plain=fmt != "mat" and not given)
     if rate is not None:

@@ -98,10 +98,17 @@ def test_map_input_errors_are_one_line(tmp_path):
     write_map(trace, np.cos(2 * np.pi * t), np.sign(np.cos(2 * np.pi * t)) * 2.0 + np.cos(2 * np.pi * t))
     r = _bench("analyze", trace)
     assert r.returncode == 2 and "--sample-rate" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    timed = tmp_path / "timed.csv"       # a log with its time, the time left out of the mapping
+    np.savetxt(timed, np.column_stack([t, np.cos(2 * np.pi * t), np.sign(np.cos(2 * np.pi * t))]), delimiter=",",
+               header="time,velocity,torque", comments="")
+    r = _bench("analyze", timed, "--columns", "qd=velocity,tau=torque")
+    assert r.returncode == 2 and "no time column mapped" in r.stderr, r.stderr
     spec = PRESETS["j4"]
     v, F = swept_map(spec, 10261, felt=True)
     path = tmp_path / "m.csv"
     write_map(path, v, F)
+    r = _bench("analyze", path, "--columns", "qd=speed,tau=torque")
+    assert r.returncode == 2 and "no column 'speed' (for qd)" in r.stderr and "velocity [rad/s]" in r.stderr, r.stderr
     r = _bench("analyze", path, "--add", "cogging")
     assert r.returncode == 2 and "friction-velocity map" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     one_way = tmp_path / "one.csv"
