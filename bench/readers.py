@@ -73,8 +73,9 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 torque_unit: str | None = None, inertia: float | None = None,
                 torque_hold: str | None = None, time_unit: str | None = None,
                 window: str | None = None, sample_rate: float | None = None,
-                joint: str | None = None) -> Record:
-    """Read, map, convert, resample and validate a record.  ``source``: a path, bytes or a
+                joint: str | None = None) -> Record | friction_map.FrictionMap:
+    """Read, map, convert, resample and validate a record (a table of speed and friction with
+    no time and no position: a ``FrictionMap``, ``bench.friction_map``).  ``source``: a path, bytes or a
     text stream.  ``window``: "START:END", seconds from the first sample (either may be
     left out), the part of a long log to analyse.  ``sample_rate`` [Hz]: the rows' rate, for
     a file without a time column (``bench.sample_rate``).  ``joint``: the label of the joint
