@@ -116,7 +116,7 @@ class MapAnalysis:
                      f"asymmetry differ only by how the dip scales: check the runner-up too)")
         return {"effect": t["effect"], "significant": bool(t["credit"]), "rms_before": t["before"],
                 "rms_after": t["cv"], "p_value": t["p"], "evidence": text,
-                "values": {k: t["fit"].values[k] for k in _effect_keys(t["effect"])}}
+                "values": {mf.VALUE_OF[t["effect"]]: t["fit"].values[mf.VALUE_OF[t["effect"]]]}}
 
     # --- the report ----------------------------------------------------------------------
     def report(self) -> dict:
@@ -174,7 +174,7 @@ class MapAnalysis:
             "baseline": {"parameters": {k: base.values[k] for k in values}, "rms_error": self.baseline_cv,
                          "start": "map_fit", "scored": "cross-validated over interleaved speeds"},
             "final": {"effects": effects, "rms_error": self.final_cv,
-                      "values": {k: final.values[k] for e in effects for k in _effect_keys(e)}},
+                      "values": {mf.VALUE_OF[e]: final.values[mf.VALUE_OF[e]] for e in effects}},
             "diagnosis": self.steps,
             "unexplained": {"structured": structured, "evidence": bent or self._left_text(structured, scale),
                             "test": self.left, "across_speeds": self.across},
@@ -260,10 +260,6 @@ class MapAnalysis:
 def analyze_map(m: FrictionMap, add: list[str] | None = None, diagnose_effects: bool = True,
                 name: str = "map") -> MapAnalysis:
     return MapAnalysis(m, add, diagnose_effects, name)
-
-
-def _effect_keys(effect: str) -> tuple:
-    return {"torque_offset": ("offset",), "direction_asymmetry": ("asym",), "stribeck_shape": ("delta",)}[effect]
 
 
 def _strict(doc):

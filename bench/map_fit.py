@@ -31,6 +31,9 @@ from bench.lugre import LuGreParams
 from bench.unexplained import MIN_RISE, decays
 
 CONTENDERS = ("torque_offset", "direction_asymmetry", "stribeck_shape")
+# each contender's value in the map, and the value at which its term does nothing
+VALUE_OF = {"torque_offset": "offset", "direction_asymmetry": "asym", "stribeck_shape": "delta"}
+NEUTRAL = {"offset": 0.0, "asym": 0.0, "delta": 1.0}
 # Significance of an effect's F test and of the lack-of-fit test: statistics' usual 0.1 %, not
 # tuned on data; an effect also needs a peak of MIN_EFFECT of Fc and what is left MIN_SIZE of
 # Fc (rms), the dynamic verdict's sizes (measured there: bench.diagnosis, bench.unexplained;
@@ -71,8 +74,7 @@ class MapModel:
         self.effects, self.flat = tuple(effects), flat      # flat: no dip, Fs = Fc
         self.alpha = alpha      # flat: alpha does nothing; the dipped fit's, for the report
         self.keys = (("Fc", "sigma2") if flat else ("Fc", "Fs", "log_alpha", "sigma2")) + tuple(
-            {"torque_offset": "offset", "direction_asymmetry": "asym", "stribeck_shape": "log_delta"}[e]
-            for e in self.effects)
+            "log_delta" if VALUE_OF[e] == "delta" else VALUE_OF[e] for e in self.effects)   # delta fitted as its log
 
     def values(self, x) -> dict:
         d = dict(zip(self.keys, map(float, x)))
@@ -146,7 +148,9 @@ def fit(v: np.ndarray, F: np.ndarray, effects: tuple = (), start: dict | None = 
     # from the given values and, for a new model, from the grid too: an effect added to a
     # fit that bent to absorb it stays in that basin (j4's asymmetric map fitted an offset
     # with alpha 9x off from the symmetric fit's values, tuning seed 20030)
-    starts = [start] if cv_only and start is not None else ([start] if start is not None else []) + [None]
+    starts = [start] if start is not None else []
+    if not (cv_only and starts):
+        starts.append(None)        # the alpha grid
     for s in starts:
         x0 = model.vector(s if s is not None else _grid_start(v, F, effects))
         x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
@@ -221,12 +225,12 @@ def lack_of_fit(v: np.ndarray, r: np.ndarray, p: int) -> dict:
     inverse = np.empty(len(v), dtype=int)
     inverse[order] = np.cumsum(new) - 1
     counts = np.bincount(inverse)
-    groups = counts
-    if len(groups) < len(v) - 2 and len(groups) > p:
+    groups = len(counts)
+    if groups < len(v) - 2 and groups > p:
         means = np.bincount(inverse, r) / counts
         ss_pe = float(np.sum((r - means[inverse]) ** 2))
         ss_lof = float(np.sum(counts * means ** 2))
-        df_pe, df_lof = len(v) - len(groups), len(groups) - p
+        df_pe, df_lof = len(v) - groups, groups - p
         if ss_pe > 0:
             Fstat = (ss_lof / df_lof) / (ss_pe / df_pe)
             noise = ss_pe / df_pe
@@ -278,9 +282,8 @@ def rising(v, F, base: Fit) -> tuple[Fit, float | None]:
 
 def term_peak(v, with_effect: Fit, effect: str) -> float:
     """The largest change the effect's own term makes to the map, at the fitted values."""
-    neutral = dict(with_effect.values, **{"torque_offset": {"offset": 0.0},
-                                          "direction_asymmetry": {"asym": 0.0},
-                                          "stribeck_shape": {"delta": 1.0}}[effect])
+    key = VALUE_OF[effect]
+    neutral = dict(with_effect.values, **{key: NEUTRAL[key]})
     return float(np.max(np.abs(friction(v, with_effect.values) - friction(v, neutral))))
 
 
