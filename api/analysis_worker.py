@@ -25,9 +25,11 @@ def _init(abandoned) -> None:
     analysis_worker_init()
 
 
-def analyze_upload(job: int, raw: bytes, name: str, options: dict, effects, diagnose: bool) -> dict:
+def analyze_upload(job: int, raw: bytes, name: str, options: dict, effects, diagnose: bool,
+                   plots: bool = False) -> dict:
     """In the analysis process: read, identify, diagnose; InputError travels back pickled,
-    and ``bench.checkpoint.Stopped`` once the job is abandoned."""
+    and ``bench.checkpoint.Stopped`` once the job is abandoned.  ``plots``: the report's
+    plots too, as PNG data: URIs under ``plots`` (the technician's page shows them)."""
     import json
 
     from bench.analysis import analyze_record
@@ -37,7 +39,11 @@ def analyze_upload(job: int, raw: bytes, name: str, options: dict, effects, diag
         rec = read_record(raw, name=name, **options)
         result = analyze_record(rec, inertia=options.get("inertia"), add=effects, diagnose_effects=diagnose,
                                 name=name)
-    return json.loads(json.dumps(result.report(), default=float))   # plain JSON types only
+    doc = json.loads(json.dumps(result.report(), default=float))   # plain JSON types only
+    if plots:
+        from bench.report_html import plots_as_data
+        doc["plots"] = plots_as_data(result)
+    return doc
 
 
 class AnalysisWorker:

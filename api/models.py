@@ -190,3 +190,14 @@ class KeyCreated(KeyInfo):
 
 class KeyList(BaseModel):
     keys: list[KeyInfo]
+
+
+class EffectInfo(BaseModel):
+    name: str
+    summary: str
+    screened: bool      # tried by every diagnosis; False: only when asked (``add``)
+    on_maps: bool       # a friction-velocity map can show it
+
+
+class EffectList(BaseModel):
+    effects: list[EffectInfo]

@@ -1,4 +1,4 @@
-"""/health, /estop, /keys and /analyze."""
+"""/health, /estop, /keys, /effects and /analyze."""
 from __future__ import annotations
 
 import asyncio
@@ -14,7 +14,7 @@ from api import errors as E
 from api.auth import Principal
 from api.deps import Service, admin, observer, operator, principal, service
 from api.limits import MAX_UPLOAD        # the body cap itself is enforced by api.limits.BodyLimit
-from api.models import EStopState, Health, KeyCreate, KeyCreated, KeyInfo, KeyList
+from api.models import EffectInfo, EffectList, EStopState, Health, KeyCreate, KeyCreated, KeyInfo, KeyList
 from api.runs import Conflict, NotFound
 from bench.errors import InputError
 
@@ -92,6 +92,15 @@ def revoke_key(key_id: str, svc: Service = Depends(service), _=Depends(admin)):
 
 
 # --- analysis of an uploaded record ------------------------------------------------------------
+@router.get("/effects", response_model=EffectList, tags=["analysis"], responses={**E.UNAUTHORIZED, **E.FORBIDDEN},
+            summary="The effect library: what POST /analyze?add= takes")
+def effects(_=Depends(observer)):
+    from bench.effects import EFFECTS
+    from bench.map_fit import CONTENDERS
+    return EffectList(effects=[EffectInfo(name=n, summary=e.summary, screened=e.auto, on_maps=n in CONTENDERS)
+                               for n, e in EFFECTS.items()])
+
+
 _BINARY = {"type": "string", "format": "binary"}
 _UPLOAD_DOC = {"requestBody": {"required": True, "content": {
     "text/csv": {"schema": {"type": "string", "minLength": 1}},
@@ -129,19 +138,26 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
                   torque_hold: Optional[str] = Query(None, pattern="^(zoh|sample|auto)$"),
                   add: Optional[str] = Query(None, max_length=200, description="effects to add, comma-separated"),
                   diagnose: bool = Query(True, description="diagnose what the LuGre model misses"),
+                  plots: bool = Query(False, description="add the report's plots as PNG data: URIs (`plots`)"),
                   svc: Service = Depends(service), _=Depends(operator)):
     # the core speaks bench analyze's options; a poster of files is told the query parameters
     from api.wording import in_api_words, report_in_api_words
     try:
         doc = await _analyze(request, svc, inertia, columns, joint, joint_type, time_unit, window,
-                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose)
+                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots)
     except InputError as e:
         raise type(e)(in_api_words(str(e))) from None
-    return doc if isinstance(doc, Response) else report_in_api_words(doc)
+    if isinstance(doc, Response):
+        return doc
+    pictures = doc.pop("plots", None)        # megabytes of base64: not words to translate
+    doc = report_in_api_words(doc)
+    if pictures is not None:
+        doc["plots"] = pictures
+    return doc
 
 
 async def _analyze(request: Request, svc: Service, inertia, columns, joint, joint_type, time_unit, window,
-                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose):
+                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots):
     name, raw = await _upload(request)
     from bench.readers import parse_columns, parse_window
     from bench.records import inertia_setting
@@ -158,7 +174,7 @@ async def _analyze(request: Request, svc: Service, inertia, columns, joint, join
     worker = svc.analysis_pool
     waiting = None
     try:
-        job, fut = worker.submit(raw, name, options, effects, diagnose)
+        job, fut = worker.submit(raw, name, options, effects, diagnose, plots)
         waiting = asyncio.wrap_future(fut)
         while True:
             done, _ = await asyncio.wait({waiting}, timeout=POLL_DISCONNECT)

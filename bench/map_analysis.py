@@ -243,9 +243,12 @@ class MapAnalysis:
         return [out]
 
     def write_html(self, path: Path) -> None:
+        from bench.report_html import _img
         doc = self.report()
         plots = self.write_plots(path.parent / (path.stem + "_plots"))
-        rows = "".join(f"<tr><td>{k}</td><td>{val:.6g}</td><td>{doc['uncertainty'][k]:.3g}</td></tr>"
+        def num(x, f):          # a value no fit gives is None in the report
+            return "–" if x is None else format(x, f)
+        rows = "".join(f"<tr><td>{k}</td><td>{num(val, '.6g')}</td><td>{num(doc['uncertainty'].get(k), '.3g')}</td></tr>"
                        for k, val in doc["parameters"].items())
         items = "".join(f"<li>{html.escape(d['effect'])}: {html.escape(d['evidence'])}</li>" for d in doc["diagnosis"])
         path.write_text(
@@ -254,7 +257,7 @@ class MapAnalysis:
             f"<table><tr><th>parameter</th><th>value</th><th>std. error</th></tr>{rows}</table>"
             f"<ul>{items}</ul><p>{html.escape(doc['unexplained']['evidence'])}</p>"
             + "".join(f"<p>{html.escape(w)}</p>" for w in doc["warnings"])
-            + "".join(f'<img src="{html.escape(p.parent.name + "/" + p.name)}" alt="map">' for p in plots))
+            + "".join(_img(p) for p in plots))      # inlined, as a record's report: one file travels
 
 
 def analyze_map(m: FrictionMap, add: list[str] | None = None, diagnose_effects: bool = True,

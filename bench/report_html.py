@@ -7,9 +7,24 @@ import html
 from pathlib import Path
 
 
+def data_uri(path: Path) -> str:
+    """A PNG as a data: URI, so a report (or ``POST /analyze?plots=true``'s JSON) carries it."""
+    return "data:image/png;base64," + base64.b64encode(Path(path).read_bytes()).decode()
+
+
+def plots_as_data(analysis) -> dict[str, str]:
+    """An analysis's plots (a record's or a map's), drawn in a scratch directory and returned
+    as data: URIs keyed by what each shows; nothing is left on disk."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="bench-plots-") as tmp:
+        files = analysis.write_plots(Path(tmp))
+        if not isinstance(files, dict):            # a map's: a list of files
+            files = {Path(f).stem: f for f in files}
+        return {k: data_uri(f) for k, f in files.items()}
+
+
 def _img(path: Path) -> str:
-    b64 = base64.b64encode(Path(path).read_bytes()).decode()
-    return f'<img src="data:image/png;base64,{b64}" style="max-width:100%">'
+    return f'<img src="{data_uri(path)}" style="max-width:100%">'
 
 
 def render_html(name: str, doc: dict, files: dict) -> str:

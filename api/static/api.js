@@ -52,6 +52,21 @@ async function send(method, path, body) {
 }
 
 export async function get(path) { return (await send("GET", path)).json(); }
+
+// A file POSTed as multipart/form-data (field "file": its name goes along); abort via `signal`.
+export async function upload(path, file, signal) {
+  const form = new FormData();
+  form.append("file", file, file.name);
+  let r;
+  try {
+    r = await fetch(path, {method: "POST", headers: headers(), body: form, signal});
+  } catch (e) {
+    if (signal && signal.aborted) throw new ApiError(0, "cancelled");
+    throw new ApiError(0, "cannot reach the bench service (is bench serve running?)");
+  }
+  if (!r.ok) throw await fail(r);
+  return r.json();
+}
 export async function post(path, body) { return (await send("POST", path, body)).json(); }
 export async function put(path, body) { return (await send("PUT", path, body)).json(); }
 export async function blob(path) { return (await send("GET", path)).blob(); }

@@ -4,8 +4,10 @@ import {$} from "/static/dom.js";
 import * as bench from "/static/bench.js";
 import * as run from "/static/run.js";
 import * as history from "/static/history.js";
+import * as analyze from "/static/analyze.js";
 
-const VIEWS = {bench, start: run.start, live: run.live, history: history.runs, compare: history.compare};
+const VIEWS = {bench, start: run.start, live: run.live, history: history.runs, compare: history.compare,
+               analyze: analyze.view};
 const ctx = {role: null, name: null, bench: null, joints: [], estop: null, view: null, go};
 let healthTimer = null;
 let healthGen = 0;      // one polling loop at a time, also across a log-out and log-in

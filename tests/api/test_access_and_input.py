@@ -366,3 +366,48 @@ def test_analyze_a_friction_velocity_map(operator):
     r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"}, params={"add": "cogging"},
                       timeout=60)
     assert r.status_code == 422 and "friction-velocity map" in r.json()["detail"], r.text
+
+
+def test_analyze_with_plots_and_the_effect_library(operator, observer, live):
+    """``plots=true`` adds the report's PNGs as data: URIs (the technician's page shows them),
+    for a record in time and for a friction-velocity map; ``GET /effects`` lists what ``add``
+    takes, and which of it a map can show."""
+    import base64
+
+    import httpx
+    import numpy as np
+
+    from bench.effects import EFFECTS
+    from bench.lugre import LuGreParams
+
+    def pngs(doc):
+        assert doc["plots"], doc.get("plots")
+        for name, uri in doc["plots"].items():
+            head, _, data = uri.partition(",")
+            assert head == "data:image/png;base64", (name, head)
+            raw = base64.b64decode(data, validate=True)
+            assert raw[:8] == b"\x89PNG\r\n\x1a\n" and len(raw) > 5_000, name
+        return set(doc["plots"])
+
+    text = _record_csv()
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
+                      params={"plots": "true", "add": "torque_offset"}, timeout=180)
+    assert r.status_code == 200, r.text
+    assert pngs(r.json()) >= {"map", "presliding", "residual_baseline", "error_fall"}
+    r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
+                      params={"diagnose": "false"}, timeout=180)
+    assert r.status_code == 200 and "plots" not in r.json()      # only when asked: they weigh ~100 kB each
+    rng = np.random.default_rng(10342)
+    speeds = np.geomspace(0.02, 3.0, 10)
+    v = np.concatenate([speeds, -speeds])
+    F = LuGreParams(3.0, 4.2, 8.0, 0.0, 0.0, 1.5).steady_state(v) + rng.normal(0.0, 0.005, len(v))
+    table = "velocity,torque\n" + "\n".join(f"{a:.6g},{b:.6g}" for a, b in zip(v, F))
+    r = operator.post("/analyze", content=table, headers={"content-type": "text/csv"}, params={"plots": "true"},
+                      timeout=60)
+    assert r.status_code == 200 and r.json()["record"] == "friction_map", r.text
+    assert pngs(r.json()) == {"friction_map"}
+    listed = observer.get("/effects").json()["effects"]
+    assert [e["name"] for e in listed] == list(EFFECTS)
+    assert {e["name"] for e in listed if e["on_maps"]} == {"torque_offset", "direction_asymmetry", "stribeck_shape"}
+    assert all(e["summary"] for e in listed)
+    assert httpx.get(live.url + "/effects").status_code == 401

@@ -120,6 +120,7 @@ def test_browser_observer_sees_no_operator_controls(page, server):
     login(page, server.observer, "observer")
     assert page.locator("#estop").is_visible() and estop_in_view(page)    # any key may stop the bench
     assert page.locator("nav button[data-view=start]").is_hidden()
+    assert page.locator("nav button[data-view=analyze]").is_hidden()      # POST /analyze needs an operator
     assert page.locator(".comp-switch").count() == 0                      # compensation shown, not switchable
     assert page.locator("#joints tbody tr[data-joint]").count() == 4
     for hidden in ("#start-run", "#live-cancel", "#estop-reset"):
@@ -138,7 +139,7 @@ def test_browser_observer_sees_no_operator_controls(page, server):
 
 def test_browser_every_view_fits_the_tablet_with_the_estop_in_reach(page, server):
     login(page, server.admin, "admin")
-    for view in ("bench", "start", "live", "history", "compare"):
+    for view in ("bench", "start", "live", "history", "compare", "analyze"):
         page.click(f"nav button[data-view={view}]")
         assert page.locator(f"#view-{view}").is_visible()
         assert page.evaluate("document.documentElement.scrollWidth") <= VIEWPORT["width"], view
@@ -233,6 +234,56 @@ def test_browser_compares_two_identifications_of_a_joint(page, server):
         text = page.inner_text(f"#compare tr[data-param={name}] td.change")
         assert text.endswith("%")
         assert float(text.rstrip(" %")) == pytest.approx(100 * (b[name] - a[name]) / abs(a[name]), abs=0.051), name
+
+
+def test_browser_analyzes_a_robots_log_and_the_error_falls(page, server, tmp_path):
+    """A log as a robot's logger writes it (its own column names, degrees, no metadata lines)
+    with cogging the virtual joint hid in it (fresh seed 10343): uploaded from the page, a
+    wrong column named in the API's one line, then read with the mapping typed into the form;
+    the page shows the model, cogging named with the held-out error falling, the plots, and
+    an effect ticked in is fitted on the next analysis."""
+    import numpy as np
+
+    from virtual_drives.conditions import make_record
+    from virtual_drives.presets import PRESETS
+    spec = PRESETS["rotary"]
+    rec, _ = make_record(spec, "clean", seed=10343, duration=8.0, effects=("cogging:amplitude=0.02,pitch=0.3",))
+    log = tmp_path / "arm_log.csv"
+    np.savetxt(log, np.column_stack([rec.t, np.degrees(rec.q), rec.tau]), delimiter=",",
+               header="time_s,angle_deg,motor_torque", comments="", fmt="%.9g")
+    login(page, server.operator, "operator")
+    page.click("nav button[data-view=analyze]")
+    page.click("#an-run")
+    pw.expect(page.locator("#an-msg")).to_have_text("Choose a log file first.")
+    page.set_input_files("#an-file", str(log))
+    page.fill("input[name=columns]", "t=time_s,tau=torque,q=angle_deg")
+    page.click("#an-run")
+    pw.expect(page.locator("#an-msg")).to_contain_text("motor_torque", timeout=60_000)   # the file's columns listed
+    assert "\n" not in page.inner_text("#an-msg") and "Traceback" not in page.inner_text("#an-msg")
+    assert page.locator("#an-result").is_hidden()
+    page.fill("input[name=columns]", "t=time_s,tau=motor_torque,q=angle_deg")
+    page.fill("input[name=inertia]", str(spec.inertia))
+    page.fill("input[name=position_unit]", "deg")
+    page.click("#an-run")
+    pw.expect(page.locator("#an-history tbody tr")).to_have_count(1, timeout=120_000)
+    pw.expect(page.locator("#an-verdict")).to_have_text("Named: cogging; nothing left to explain")
+    assert page.inner_text("#an-diag tr[data-effect=cogging] td:nth-child(2)") == "yes"
+    fall = page.inner_text("#an-history tr[data-run='1'] td.fall")
+    assert float(fall.split("(")[1].rstrip(" %)")) < -50, fall         # the held-out error falls
+    fc = float(page.inner_text("#an-params tr[data-param=Fc] td.value"))
+    assert fc == pytest.approx(spec.friction.Fc, rel=0.03)
+    assert page.locator("#an-params tr[data-param=sigma0]").count() == 1
+    pw.expect(page.locator("#an-plots img")).to_have_count(len(["map", "presliding", "inertia", "residual_baseline",
+                                                               "step1", "error_fall"]))
+    assert page.evaluate("[...document.querySelectorAll('#an-plots img')].every(i => i.complete && i.naturalWidth > 300)")
+    # the technician ticks an effect the diagnosis did not name: fitted, shown as added
+    page.check("input[name=add][value=torque_offset]")
+    page.click("#an-run")
+    pw.expect(page.locator("#an-history tbody tr")).to_have_count(2, timeout=120_000)
+    pw.expect(page.locator("#an-history tr[data-run='2']")).to_contain_text("torque_offset")
+    assert page.locator("#an-diag tr[data-effect=torque_offset]").count() == 1
+    assert page.evaluate("document.documentElement.scrollWidth") <= VIEWPORT["width"]
+    assert page.locator("#estop").is_visible() and estop_in_view(page)
 
 
 def test_browser_estop_stops_a_calibration_until_an_admin_resets(page, server):
