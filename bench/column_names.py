@@ -77,6 +77,26 @@ def suffix_unit(name: str, role: str) -> str | None:
     return unit if factor_of(unit, known) else None
 
 
+_MEAN = re.compile(r"^(?:mean|avg|average)_(.+)$|^(.+?)_(?:mean|avg|average)$")
+
+
+def _mean_of(name: str) -> str | None:
+    """"torque_mean", "Mean torque", "avg_velocity" -> the quantity averaged; else None.  A
+    friction-velocity map is a table of such means, often beside their spread ("torque_std"),
+    which names no role and is left alone."""
+    m = _MEAN.match(normalised(name))
+    return (m.group(1) or m.group(2)) if m else None
+
+
+def by_bare_name(col, names: list):
+    """A mapped name without the unit its column states: "velocity" for "velocity [rad/s]",
+    when that is the one such column (typed so, the exact name was refused as not there)."""
+    if not isinstance(col, str) or col in names or "@" in col:
+        return col
+    hits = [n for n in names if split_unit(str(n))[1] and split_unit(str(n))[0].strip() == col.strip()]
+    return hits[0] if len(hits) == 1 else col
+
+
 def _stamp_first(names: list[str], taken: set) -> list[str]:
     # rostopic writes when it received a message (%time) beside when it was sampled
     # (field.header.stamp): the sample's own time is the one to resample on
@@ -106,6 +126,8 @@ def find_roles(names: list[str], roles, taken: set) -> tuple[dict, dict]:
         if not hits:        # "q_rad", "time_s": a name and its unit after an underscore
             hits = [n for n in names if n not in taken and (u := suffix_unit(n, role))
                     and normalised(n[:-len(u) - 1]) in (role, *NAMES.get(role, ()))]
+        if not hits and role != "t":       # a map's per-speed means: "torque_mean", "avg_velocity"
+            hits = [n for n in names if n not in taken and _mean_of(n) in (role, *NAMES.get(role, ()))]
         if len(hits) == 1:
             out[role] = guessed[role] = hits[0]
             taken.add(hits[0])

@@ -51,6 +51,24 @@ def is_map(mapping: dict, names: list, meta: dict, rate_given: bool, own_times: 
     return has["qd"] and has["tau"] and not has["t"] and not has["q"]
 
 
+def refuse_torqueless(mapping: dict, names: list, meta: dict, rate_given: bool, own_times: bool,
+                      name: str) -> None:
+    """A velocity column, no time, no position and no torque found: a map whose friction column
+    is named otherwise ("current [A]", "Reibmoment").  Asked for a time column, its user could
+    not help; asked for the torque, one can."""
+    has = {r: column_index(mapping.get(r), names) is not None for r in ("t", "q", "qd", "tau")}
+    if rate_given or own_times or has["t"] or has["q"] or has["tau"] or not has["qd"] or "sample_rate" in meta:
+        return
+    from bench.header_units import split_unit
+    shown = ", ".join(map(str, names[:40])) + (" ..." if len(names) > 40 else "")
+    qd = split_unit(str(mapping["qd"]))[0]      # a mapping may leave out the unit (column_names.by_bare_name)
+    raise InputError(f"{name}: a velocity column ({mapping['qd']}) and no time or position, but no column "
+                     f"is named as the friction or torque (header is: {shown}); as a friction-velocity map "
+                     f"(a row per steady speed) map it, --columns qd={qd},tau=NAME (a motor current: "
+                     f"also --torque-unit K*N*m, K its torque constant); as samples in time, "
+                     f"--columns t=NAME,tau=NAME,q=NAME")
+
+
 def rows_are_points(v: np.ndarray) -> bool:
     """Sorted by speed, swept one direction at a time, or in the experiment's order (+v1, -v1,
     +v2, ...); never samples in time, whose every pass from one direction to the other runs

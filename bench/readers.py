@@ -108,6 +108,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     units_row = units_row or {}
     explicit = mapping is not None
     names = _names(table)
+    if explicit:
+        mapping = {r: column_names.by_bare_name(c, names) for r, c in mapping.items()}
     by_name, of_joint = {}, {}
     if mapping is None:         # roles by their own names or as loggers name them (bench.column_names)
         try:
@@ -127,6 +129,8 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     if friction_map.is_map(mapping, names, meta, sample_rate is not None, bool(given)) and not (
             explicit and column_index(column_names.default_mapping(names, ROLES, REQUIRED)[0].get("t"), names) is not None):
         return _map(table, mapping, meta, dict(opts, window=window), units_row, name, fmt, explicit, wrapped)
+    if not explicit:
+        friction_map.refuse_torqueless(mapping, names, meta, sample_rate is not None, bool(given), name)
     rate = sample_rate_of(sample_rate, meta, mapping, names, name, plain=fmt != "mat" and not given)
     if rate is not None:
         mapping.pop("t", None)

@@ -165,3 +165,16 @@ def test_a_velocity_unit_of_the_other_joint_type_is_never_read_as_this_ones(tmp_
     with pytest.raises(InputError, match=r"the header's units disagree on the joint type \(q in deg: revolute; "
                                          r"tau in N: prismatic\): give --joint-type revolute or prismatic"):
         read_record("t,tau [N],q [deg]\n0,1,2\n0.001,1,2\n".encode(), name="mixed.csv", inertia=1.0)
+
+
+def test_a_mapped_name_may_leave_out_the_unit_its_column_states(rec):
+    """``--columns t=time,tau=torque,q=angle`` on a header "time [s], angle [deg], ...": each
+    name the one column whose name before its unit it is, read in that unit (it was refused
+    as "no column 'time'"); two columns of that name in different units stay refused."""
+    raw = _log(rec, "time [s],angle [deg],velocity [deg/s],torque [N*m]", deg=True).encode()
+    got = read_record(raw, name="lab.csv", inertia=30.0, columns="t=time,tau=torque,q=angle")
+    np.testing.assert_allclose(got.q, rec.q, atol=1e-8)
+    assert got.reading["columns"]["q"] == "angle [deg]"
+    both = _log(rec, "t,q [deg],q [rad],tau", deg=True).encode()
+    with pytest.raises(InputError, match=r"no column 'q' \(for q\); the file's columns: t, q \[deg\], q \[rad\], tau"):
+        read_record(both, name="two.csv", inertia=30.0, columns="t=t,tau=tau,q=q")

@@ -197,3 +197,30 @@ def test_any_table_of_speeds_and_torques_is_refused_in_one_line_or_answered_in_s
         return
     json.dumps(doc, allow_nan=False)
     assert all(np.isfinite(x) for x in doc["parameters"].values())
+
+
+def test_a_map_of_means_beside_their_spread_and_a_map_of_motor_current(tmp_path):
+    """Labs write a map's points as means beside their spread ("torque_mean, torque_std, n"):
+    the mean is the friction, the spread names no role.  A map of motor current has no column
+    named as a torque: the refusal asks for that mapping (not for a time column, which it was),
+    and mapped with the torque constant it is read in N*m.  Fresh seeds 10346, 10347."""
+    spec = PRESETS["j3"]
+    f = spec.friction
+    v, F = swept_map(spec, 10346, felt=True)
+    spread = np.full(len(v), 0.01 * f.Fc)
+    means = tmp_path / "means.csv"
+    np.savetxt(means, np.column_stack([v, F, spread, np.full(len(v), 4000)]), delimiter=",",
+               header="velocity [rad/s],Mean torque [N*m],torque_std [N*m],n", comments="")
+    doc = _doc(means)
+    assert doc["record"] == "friction_map" and doc["input"]["columns"]["tau"] == "Mean torque [N*m]", doc["input"]
+    assert abs(doc["parameters"]["Fc"] / f.Fc - 1) < 0.03, doc["parameters"]
+    spec = PRESETS["rotary"]
+    v, F = swept_map(spec, 10347, felt=False)
+    current = tmp_path / "current.csv"
+    np.savetxt(current, np.column_stack([v, F / 0.08]), delimiter=",", header="velocity [rad/s],current [A]",
+               comments="")
+    r = _bench("analyze", current)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "--columns qd=velocity,tau=NAME" in r.stderr and "--torque-unit K*N*m" in r.stderr, r.stderr
+    doc = _doc(current, columns="qd=velocity,tau=current", torque_unit="0.08*N*m")
+    assert abs(doc["parameters"]["Fc"] / spec.friction.Fc - 1) < 0.03, doc["parameters"]
