@@ -35,14 +35,16 @@ def fail(message: str) -> None:
 def simulate(
     joint: str = typer.Option("j1", help="virtual joint preset: linear, rotary, j1..j4"),
     condition: Optional[str] = typer.Option(None, help="a named recording condition, e.g. 'coloured process noise' (see README); the options below override it"),
-    excitation: Optional[str] = typer.Option(None, help="sine (the paper's torque sine), two-tone (two torque sines, golden-ratio frequencies) or pd (PD tracking; the torque column is the controller's output)"),
+    excitation: Optional[str] = typer.Option(None, help="sine (the paper's torque sine), two-tone (two torque sines, golden-ratio frequencies), pd (PD tracking; the torque column is the controller's output) or sweep (PD at constant speeds, slowest first: the friction-velocity map experiment)"),
     amplitude: Optional[float] = typer.Option(None, help="torque amplitude [N·m or N] of sine / two-tone (two-tone: the peak of both); preset default if omitted"),
     frequency: Optional[float] = typer.Option(None, help="excitation frequency [Hz] (two-tone: the first tone; pd: the reference's first sine); preset default if omitted"),
     tone2_amplitude: Optional[float] = typer.Option(None, help="two-tone: amplitude of the second tone (with --tone2-frequency; default: 65:35 split of --amplitude)"),
     tone2_frequency: Optional[float] = typer.Option(None, help="two-tone: frequency of the second tone [Hz] (default: golden ratio x --frequency)"),
     reference_amplitude: Optional[float] = typer.Option(None, help="pd: total amplitude of the two reference sines \\[rad or m] (default: from the velocity, travel and torque limits)"),
     bandwidth: Optional[float] = typer.Option(None, help="pd: natural frequency of the PD loop \\[rad/s] (default: 5x the reference, at least 60)"),
-    duration: float = typer.Option(20.0, help="record length \\[s]"),
+    duration: Optional[float] = typer.Option(None, help="record length \\[s] (default 20; a sweep lasts as its speeds need)"),
+    speeds: Optional[int] = typer.Option(None, help="sweep: how many constant speeds, 4-40 (default 12)"),
+    map_: bool = typer.Option(False, "--map", help="sweep: write the friction-velocity map (a row per constant-speed pass: mean velocity, mean torque) instead of the samples"),
     rate: Optional[float] = typer.Option(None, help="control and sample rate [Hz] (default 1000)"),
     seed: int = typer.Option(0, help="noise seed"),
     process_noise: Optional[float] = typer.Option(None, help="std of a disturbance torque the joint feels and the record does not contain [N·m or N]"),
@@ -97,6 +99,9 @@ def simulate(
             encoder=encoder, rest=rest, pause=pause, torque_resolution=torque_resolution).items()
             if v is not None}
         rec = rec.with_(**given)
+        if speeds is not None:
+            rec = rec.with_(speeds=speeds)
+        duration = _sweep_length(spec, rec, duration, speeds, map_)
         if process_noise_colour is not None or process_noise_tau is not None:
             colour = process_noise_colour or ("lowpass" if rec.process_noise_tau > 0 else "white")
             rec = rec.with_(process_noise_colour=colour)
@@ -130,17 +135,41 @@ def simulate(
                                     declared_inertia=declared_inertia)
         finite_arrays(f"joint {spec.name}", t=record.t, tau=record.tau, q=record.q, qd=record.qd)
         record.meta["condition"] = condition or "custom"
-        record.to_csv(output)
+        if map_:
+            from virtual_drives.velocity_sweep import map_points, write_map
+            v, F = map_points(record, truth)
+            write_map(output, v, F, record)
+        else:
+            record.to_csv(output)
     except BenchError as e:
         fail(str(e))
     except OSError as e:
         fail(f"cannot write {output}: {e.strerror}")
     lo, hi = spec.position_limits
     q = truth.q
-    what = {"sine": "torque sine", "two-tone": "two torque tones", "pd": "PD tracking"}[rec.excitation]
+    what = {"sine": "torque sine", "two-tone": "two torque tones", "pd": "PD tracking",
+            "sweep": f"velocity sweep at {rec.speeds} speeds"}[rec.excitation]
+    if map_:
+        out.print(f"wrote {output}: a friction-velocity map of {len(v)} constant-speed passes "
+                  f"({min(abs(v)):.4g} to {max(abs(v)):.4g} {spec.position_unit}/s), joint {spec.name}, "
+                  f"{what} over {duration:.0f} s")
+        return
     out.print(f"wrote {output}: {len(record.t)} samples, joint {spec.name}, {what}, "
               f"{'friction' if rec.output == 'friction' else 'torque'} column, "
               f"q in [{q.min():.4g}, {q.max():.4g}] (workspace [{lo:g}, {hi:g}])")
+
+
+def _sweep_length(spec, rec, duration, speeds, map_) -> float:
+    """A sweep lasts as its speeds need; --speeds and --map belong to it alone."""
+    if rec.excitation != "sweep":
+        if speeds is not None or map_:
+            raise BenchError(f"{'--map' if map_ else '--speeds'} needs --excitation sweep: a map's points are "
+                             f"constant-speed passes")
+        return 20.0 if duration is None else duration
+    if duration is not None:
+        raise BenchError("--duration: a sweep lasts as its speeds need; choose how many with --speeds")
+    from virtual_drives.velocity_sweep import duration as sweep_duration
+    return sweep_duration(spec, rec.speeds, rec.rate)
 
 
 def _gravity_pair(text: str, spec) -> tuple[float, float]:

@@ -37,7 +37,7 @@ from bench.validate import MAX_RATE, MAX_SAMPLES, in_range
 from virtual_drives.joint import Gear, JointSpec, lagged, quantise, sine_torque
 from virtual_drives.physics import simulate, simulate_two_mass, substeps_for
 
-EXCITATIONS = ("sine", "two-tone", "pd")
+EXCITATIONS = ("sine", "two-tone", "pd", "sweep")   # sweep: bench simulate --map (velocity_sweep)
 OUTPUTS = ("torque", "friction")
 COLOURS = ("white", "lowpass", "pink")
 GOLDEN = 0.5 * (1.0 + math.sqrt(5.0))  # the most irrational ratio: two tones never re-align
@@ -98,6 +98,7 @@ class Recording:
     encoder: str = "motor"                # a geared joint's encoder: on the motor or the load
     rest: float = 0.0                     # s held still before the motion and after it (a robot holding its pose)
     pause: float = 0.0                    # s held still in the middle of the motion (between two moves)
+    speeds: int = 12                      # sweep: constant speeds (velocity_sweep)
 
     def with_(self, **changes) -> "Recording":
         return replace(self, **changes)
@@ -340,13 +341,22 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
     dist = process_noise(n, dt, rec.process_noise, rec.process_noise_tau, rec.process_noise_colour, rng)
     res = spec.encoder_resolution if rec.encoder_resolution is None else rec.encoder_resolution
     q_ref = None
-    if rec.excitation == "pd":
+    if rec.excitation == "sweep":   # constant speeds under the PD loop, its length its own
+        from virtual_drives import velocity_sweep
+        if still:
+            raise InputError("--rest and --pause apply to sine, two-tone and pd: a sweep holds at each pass's end")
+        q_ref, v_ref = velocity_sweep.reference(spec, rec.speeds, dt)
+        q_ref = np.concatenate([q_ref, np.full(max(0, n - len(q_ref)), q_ref[-1])])[:n]
+        v_ref = np.concatenate([v_ref, np.zeros(max(0, n - len(v_ref)))])[:n]
+        comps = ((1.0, 1.0),)         # no sines: the default loop (wn 60 rad/s) unless --bandwidth
+    elif rec.excitation == "pd":
         comps = reference_components(spec, rec)
         q_ref, v_ref = pd_reference(comps, centred(spec), t)
         if still:   # the reference holds the start pose, then fades in; it fades out to it
             env = motion_envelope(t, rec.rest, duration, min(f for _, f in comps), rec.pause)
             q_ref = centred(spec) + env * (pd_reference(comps, 0.0, t - rec.rest)[0])
             v_ref = np.gradient(q_ref, t)
+    if q_ref is not None:
         kp, kd = pd_gains(spec, rec, comps)
         gear = Gear.of(spec, ev, dt)
         split = () if gear is None else (gear.n_sub, gear.M_motor, gear.M_load, gear.gap, gear.w2, gear.c2,
