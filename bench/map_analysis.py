@@ -103,7 +103,7 @@ class MapAnalysis:
 
     def _step(self, cur, cur_cv, effect):
         t = self._trial(cur, cur_cv, effect)
-        self.steps.append(self._entry(t, []))
+        self.steps.append({**self._entry(t, []), "added": True})     # asked for, as a record's report says
         return t["fit"], t["cv"]
 
     def _entry(self, t: dict, close: list) -> dict:
@@ -114,7 +114,7 @@ class MapAnalysis:
         if close:
             text += (f"; a close call: {', '.join(close)} fits nearly as well (on a map an offset and a direction "
                      f"asymmetry differ only by how the dip scales: check the runner-up too)")
-        return {"effect": t["effect"], "significant": bool(t["credit"]), "rms_before": t["before"],
+        return {"effect": t["effect"], "significant": bool(t["credit"]), "added": False, "rms_before": t["before"],
                 "rms_after": t["cv"], "p_value": t["p"], "evidence": text,
                 "values": {mf.VALUE_OF[t["effect"]]: t["fit"].values[mf.VALUE_OF[t["effect"]]]}}
 

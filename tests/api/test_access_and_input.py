@@ -396,16 +396,17 @@ def test_analyze_with_plots_and_the_effect_library(operator, observer, live):
     assert pngs(r.json()) >= {"map", "presliding", "residual_baseline", "error_fall"}
     r = operator.post("/analyze", content=text, headers={"content-type": "text/csv"},
                       params={"diagnose": "false"}, timeout=180)
-    assert r.status_code == 200 and "plots" not in r.json()      # only when asked: they weigh ~100 kB each
+    assert r.status_code == 200 and "plots" not in r.json()      # only when asked: 25-210 kB each
     rng = np.random.default_rng(10342)
     speeds = np.geomspace(0.02, 3.0, 10)
     v = np.concatenate([speeds, -speeds])
     F = LuGreParams(3.0, 4.2, 8.0, 0.0, 0.0, 1.5).steady_state(v) + rng.normal(0.0, 0.005, len(v))
     table = "velocity,torque\n" + "\n".join(f"{a:.6g},{b:.6g}" for a, b in zip(v, F))
-    r = operator.post("/analyze", content=table, headers={"content-type": "text/csv"}, params={"plots": "true"},
-                      timeout=60)
+    r = operator.post("/analyze", content=table, headers={"content-type": "text/csv"},
+                      params={"plots": "true", "add": "torque_offset"}, timeout=60)
     assert r.status_code == 200 and r.json()["record"] == "friction_map", r.text
     assert pngs(r.json()) == {"friction_map"}
+    assert [(d["effect"], d["added"]) for d in r.json()["diagnosis"]] == [("torque_offset", True)]
     listed = observer.get("/effects").json()["effects"]
     assert [e["name"] for e in listed] == list(EFFECTS)
     assert {e["name"] for e in listed if e["on_maps"]} == {"torque_offset", "direction_asymmetry", "stribeck_shape"}
