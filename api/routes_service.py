@@ -136,6 +136,8 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
                   position_unit: Optional[str] = Query(None, max_length=20, description="rad, deg, rev; m, mm, um"),
                   torque_unit: Optional[str] = Query(None, max_length=20, description="N*m, mN*m, kN*m, N*mm; N, mN, kN"),
                   torque_hold: Optional[str] = Query(None, pattern="^(zoh|sample|auto)$"),
+                  encoder: Optional[str] = Query(None, pattern="^(motor|load)$",
+                                                 description="a geared joint's encoder side (default motor)"),
                   add: Optional[str] = Query(None, max_length=200, description="effects to add, comma-separated"),
                   diagnose: bool = Query(True, description="diagnose what the LuGre model misses"),
                   plots: bool = Query(False, description="add the report's plots as PNG data: URIs (`plots`)"),
@@ -144,7 +146,7 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
     from api.wording import in_api_words, report_in_api_words
     try:
         doc = await _analyze(request, svc, inertia, columns, joint, joint_type, time_unit, window,
-                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots)
+                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots, encoder)
     except InputError as e:
         raise type(e)(in_api_words(str(e))) from None
     if isinstance(doc, Response):
@@ -157,7 +159,7 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
 
 
 async def _analyze(request: Request, svc: Service, inertia, columns, joint, joint_type, time_unit, window,
-                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots):
+                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots, encoder):
     name, raw = await _upload(request)
     from bench.readers import parse_columns, parse_window
     from bench.records import inertia_setting
@@ -166,7 +168,8 @@ async def _analyze(request: Request, svc: Service, inertia, columns, joint, join
     parse_window(window)
     options = {"columns": columns, "joint_type": joint_type, "position_unit": position_unit,
                "torque_unit": torque_unit, "inertia": inertia, "torque_hold": torque_hold,
-               "time_unit": time_unit, "window": window, "sample_rate": sample_rate, "joint": joint}
+               "time_unit": time_unit, "window": window, "sample_rate": sample_rate, "joint": joint,
+               "encoder": encoder}
     effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
     if svc.analysis_pool is None:
         from api.analysis_worker import AnalysisWorker

@@ -209,6 +209,7 @@ def analyze(
     position_unit: Optional[str] = typer.Option(None, help="rad, deg, rev (revolute); m, mm, um (prismatic); or K*UNIT (counts: 0.00153398*rad)"),
     torque_unit: Optional[str] = typer.Option(None, help="N*m, mN*m, kN*m, N*mm (revolute); N, mN, kN (prismatic); or K*UNIT (amperes: 0.12*N*m)"),
     torque_hold: Optional[str] = typer.Option(None, help="zoh (commands held), sample (sampled) or auto"),
+    encoder: Optional[str] = typer.Option(None, help="a geared joint's encoder: motor (default) or load (overrides the metadata; a Parquet or .mat log has no '#' line to say it)"),
     json_out: Optional[Path] = typer.Option(None, "--json", help="write the JSON report here"),
     residuals: Optional[Path] = typer.Option(None, help="write t, measured, baseline, final, held_out at the file's own timestamps (CSV)"),
     plots: Optional[Path] = typer.Option(None, help="directory for PNG plots"),
@@ -224,7 +225,8 @@ def analyze(
         inertia = _inertia_option(inertia)
         rec = read_record(file, columns=columns, joint_type=joint_type, position_unit=position_unit,
                           torque_unit=torque_unit, inertia=inertia, torque_hold=torque_hold,
-                          time_unit=time_unit, window=window, sample_rate=sample_rate, joint=joint)
+                          time_unit=time_unit, window=window, sample_rate=sample_rate, joint=joint,
+                          encoder=encoder)
         effects = [e.strip() for e in add.split(",") if e.strip()] if add is not None else None
         result = analyze_record(rec, inertia=inertia, add=effects, diagnose_effects=not no_diagnosis,
                                 cutoff=cutoff, name=str(file))

@@ -119,7 +119,7 @@ def build(v, F, units: dict, columns: dict, meta: dict, opts: dict, name: str, f
         if found[0] != 1.0:
             conv["torque"] = {"from": found[1], "to": SI[jt][1], "factor": found[0]}
             F = F * found[0]
-    for opt in ("position_unit", "time_unit", "torque_hold", "window"):   # (at a steady speed M q'' = 0)
+    for opt in ("position_unit", "time_unit", "torque_hold", "window", "encoder"):   # (at a steady speed M q'' = 0)
         if opts.get(opt) is not None:
             warnings.append(f"--{opt.replace('_', '-')} does not apply to a friction-velocity map: ignored")
     keep = np.isfinite(v) & np.isfinite(F)

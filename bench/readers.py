@@ -26,7 +26,7 @@ from bench.counters import unwrap_counter
 from bench.errors import InputError
 from bench.glitches import mend_glitches
 from bench.joined_streams import VALUES, onto_kept_rows, sparse_columns
-from bench.records import REQUIRED, Record, _parse_meta_value, column_index, validate
+from bench.records import ENCODER_SIDES, REQUIRED, Record, _parse_meta_value, column_index, validate
 from bench.resample import regularise
 from bench.rows import cut, drop_empty_rows, parse_window
 from bench.sample_rate import sample_rate_of
@@ -73,7 +73,7 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
                 torque_unit: str | None = None, inertia: float | None = None,
                 torque_hold: str | None = None, time_unit: str | None = None,
                 window: str | None = None, sample_rate: float | None = None,
-                joint: str | None = None) -> Record | friction_map.FrictionMap:
+                joint: str | None = None, encoder: str | None = None) -> Record | friction_map.FrictionMap:
     """Read, map, convert, resample and validate a record (a table of speed and friction with
     no time and no position: a ``FrictionMap``, ``bench.friction_map``).  ``source``: a path, bytes or a
     text stream.  ``window``: "START:END", seconds from the first sample (either may be
@@ -83,8 +83,10 @@ def read_record(source, name: str | None = None, columns: str | dict | None = No
     span = parse_window(window)
     raw, name = _load(source, name)
     raw, name, wrapped = unwrap(raw, name)      # gzip, xz, zstd, a zip of one (bench.containers)
+    if encoder is not None and encoder not in ENCODER_SIDES:   # a Parquet or .mat log has no '#' line to say it
+        raise InputError(f"--encoder must be motor or load (the side of a geared joint's gear it reads), got {encoder!r}")
     opts = dict(joint_type=joint_type, position_unit=position_unit, torque_unit=torque_unit,
-                inertia=inertia, torque_hold=torque_hold, time_unit=time_unit)
+                inertia=inertia, torque_hold=torque_hold, time_unit=time_unit, encoder=encoder)
     fmt = _format(raw, name)
     mapping = parse_columns(columns) if isinstance(columns, str) or columns is None else dict(columns)
     if joint is not None and mapping is not None:

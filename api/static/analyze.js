@@ -6,7 +6,7 @@ import {$, el, fmt} from "/static/dom.js";
 
 // the form's fields that are POST /analyze's query parameters as they are
 const FIELDS = ["columns", "joint", "inertia", "joint_type", "position_unit", "torque_unit", "time_unit",
-                "sample_rate", "window"];
+                "sample_rate", "window", "torque_hold", "encoder"];
 const PNG = "data:image/png;base64,";
 // the plots in the order a technician reads them: the fit, where it fails, each effect's step,
 // the error falling; then the presliding and the inertia's sensitivity.  Panels of several

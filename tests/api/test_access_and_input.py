@@ -412,3 +412,5 @@ def test_analyze_with_plots_and_the_effect_library(operator, observer, live):
     assert {e["name"] for e in listed if e["on_maps"]} == {"torque_offset", "direction_asymmetry", "stribeck_shape"}
     assert all(e["summary"] for e in listed)
     assert httpx.get(live.url + "/effects").status_code == 401
+    r = operator.post("/analyze", content=table, headers={"content-type": "text/csv"}, params={"encoder": "side"})
+    assert r.status_code == 422 and "encoder" in r.text, r.text

@@ -314,3 +314,25 @@ def test_the_command_line_records_a_pd_tracked_geared_joint(tmp_path):
     assert doc["final"]["effects"] == ["backlash"], doc["diagnosis"][:3]
     assert abs(doc["final"]["parameters"]["bl_width"] / 0.003 - 1) < 0.10
     assert not doc["unexplained"]["structured"], doc["unexplained"]["evidence"]
+
+
+def test_a_load_side_encoder_stated_by_option_for_a_log_without_metadata(tmp_path):
+    """A Parquet log has no '#' line to say its encoder reads the load: ``--encoder load``
+    (``?encoder=load``) says it, and the backlash is seen from the load as with the line
+    (fresh seed 10360); a side that is neither is one line, exit 2."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    rec, texts = _load_side_record("j3", "backlash", 10360)
+    path = tmp_path / "log.parquet"
+    pq.write_table(pa.table({"t": rec.t, "tau": rec.tau, "q": rec.q}), path)
+    inertia = PRESETS["j3"].inertia
+    assert read_record(path, inertia=inertia).meta.get("encoder", "motor") == "motor"
+    got = read_record(path, inertia=inertia, encoder="load")
+    assert got.meta["encoder"] == "load" and np.array_equal(got.q, rec.q) and np.array_equal(got.tau, rec.tau)
+    doc = analyze_record(got).report()
+    top = doc["diagnosis"][0]
+    assert top["effect"] == "backlash" and top["significant"], (texts, doc["diagnosis"][:3])
+    assert "seen from the load's encoder" in top["evidence"], top["evidence"]
+    r = CliRunner().invoke(cli_app, ["analyze", str(path), "--inertia", str(inertia), "--encoder", "side"])
+    assert r.exit_code == 2 and "--encoder must be motor or load" in r.output and "Traceback" not in r.output, r.output
