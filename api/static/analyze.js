@@ -17,12 +17,29 @@ const PLOTS = [["map", "Friction-velocity map: the LuGre fit"], ["friction_map",
                ["inertia", "The inertia's effect on the map (Fig. 2)"]];
 let abort = null;
 let runs = 0;
+let pending = null;     // a run's trace brought from the history, analysed in place of a chosen file
 
 export const view = {
   init() {
     $("#analyze-form").onsubmit = ev => { ev.preventDefault(); analyze(); };
     $("#an-cancel").onclick = () => { if (abort) abort.abort(); };
+    $("#an-file").onchange = () => { pending = null; $("#an-trace").textContent = ""; };
     loadEffects();
+  },
+  // from the history: {run, joint}, the run's trace of that joint (a record with its metadata)
+  async enter(ctx, arg) {
+    if (!arg || !arg.run) return;
+    $("#an-msg").textContent = "";
+    $("#an-file").value = "";
+    try {
+      const blob = await api.blob(`/runs/${encodeURIComponent(arg.run)}/trace.csv?joint=${encodeURIComponent(arg.joint)}`);
+      pending = new File([blob], `${arg.run}-${arg.joint}.csv`, {type: "text/csv"});
+      $("#an-trace").textContent = `the trace of ${arg.joint} in run ${arg.run} (${(blob.size / 1e6).toFixed(1)} MB)`;
+    } catch (e) {
+      pending = null;
+      $("#an-trace").textContent = "";
+      $("#an-msg").textContent = e.message;
+    }
   },
 };
 
@@ -52,9 +69,9 @@ function query() {
 }
 
 async function analyze() {
-  const file = $("#an-file").files[0];
+  const file = pending || $("#an-file").files[0];
   $("#an-msg").textContent = "";
-  if (!file) { $("#an-msg").textContent = "Choose a log file first."; return; }
+  if (!file) { $("#an-msg").textContent = "Choose a log file first (or a run's trace from the history)."; return; }
   const q = query();
   abort = new AbortController();
   const started = Date.now();

@@ -9,7 +9,7 @@ export function el(tag, attrs, ...children) {
     else if (k === "dataset") Object.assign(e.dataset, v);
     else if (v !== false && v !== null && v !== undefined) e.setAttribute(k, v === true ? "" : v);
   }
-  for (const c of children.flat()) {
+  for (const c of children.flat(Infinity)) {     // nested lists too: a row of buttons per joint
     if (c === null || c === undefined || c === false) continue;
     e.append(c instanceof Node ? c : String(c));
   }

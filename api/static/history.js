@@ -32,6 +32,9 @@ function row(ctx, r) {
       r.joints.map(j => [" ", el("button", {type: "button", class: "csv", "data-joint": j, onclick: () =>
         api.download(`/runs/${r.id}/trace.csv?joint=${encodeURIComponent(j)}`, `${r.id}-${j}.csv`).catch(fail)},
         `CSV ${j}`)]),
+      // the trace into the Analyze view: diagnose it, add effects, watch the error fall (operators)
+      r.joints.map(j => [" ", el("button", {type: "button", class: "analyze op-only", "data-joint": j,
+        onclick: () => ctx.go("analyze", {run: r.id, joint: j})}, `analyze ${j}`)]),
     ] : ""));
 }
 

@@ -254,7 +254,7 @@ def test_browser_analyzes_a_robots_log_and_the_error_falls(page, server, tmp_pat
     login(page, server.operator, "operator")
     page.click("nav button[data-view=analyze]")
     page.click("#an-run")
-    pw.expect(page.locator("#an-msg")).to_have_text("Choose a log file first.")
+    pw.expect(page.locator("#an-msg")).to_contain_text("Choose a log file first")
     page.set_input_files("#an-file", str(log))
     page.fill("input[name=columns]", "t=time_s,tau=torque,q=angle_deg")
     page.click("#an-run")
@@ -284,6 +284,40 @@ def test_browser_analyzes_a_robots_log_and_the_error_falls(page, server, tmp_pat
     assert page.locator("#an-diag tr[data-effect=torque_offset]").count() == 1
     assert page.evaluate("document.documentElement.scrollWidth") <= VIEWPORT["width"]
     assert page.locator("#estop").is_visible() and estop_in_view(page)
+
+
+def test_browser_analyzes_a_runs_trace_from_the_history(page, server):
+    """History -> "analyze j1": the run's trace (fetched with the key, no file chosen) is
+    analysed in the Analyze view; its model is the run's own within a few per cent."""
+    query = {"procedure": "identify", "joint": "j1", "state": "succeeded"}
+    with server.client(server.operator) as c:
+        runs = c.get("/runs", params=query).json()["runs"]
+        if not runs:            # one, whether or not the identify test above ran
+            r = c.post("/runs", json={"procedure": "identify", "joints": ["j1"],
+                                      "options": {"search_max_trials": 8, "seed": 10361, "plots": False}})
+            assert r.status_code == 202, r.text
+            assert wait_run(c, r.json()["id"])["state"] == "succeeded"
+            runs = c.get("/runs", params=query).json()["runs"]
+    run = runs[0]
+    login(page, server.operator, "operator")
+    page.click("nav button[data-view=history]")
+    row = page.locator(f"#history tr[data-run='{run['id']}']")
+    # the row's buttons are buttons (a joint's list of them was shown as "[object HTMLButtonElement]")
+    assert "object" not in row.inner_text(), row.inner_text()
+    with page.expect_download() as dl:
+        row.locator("button.csv[data-joint=j1]").click()
+    assert Path(dl.value.path()).read_text().splitlines()[-1].count(",") == 3
+    row.locator("button.analyze[data-joint=j1]").click()
+    pw.expect(page.locator("#view-analyze")).to_be_visible()
+    pw.expect(page.locator("#an-trace")).to_contain_text(run["id"])
+    page.click("#an-run")
+    pw.expect(page.locator("#an-history tbody tr")).to_have_count(1, timeout=120_000)
+    pw.expect(page.locator("#an-history tr[data-run='1']")).to_contain_text(f"{run['id']}-j1.csv")
+    identified = run["result"]["joints"]["j1"]["parameters"]
+    for name in ("Fc", "Fs", "sigma2"):
+        shown = float(page.inner_text(f"#an-params tr[data-param={name}] td.value"))
+        assert shown == pytest.approx(identified[name], rel=0.03), name
+    assert page.inner_text("#an-msg") == ""
 
 
 def test_browser_estop_stops_a_calibration_until_an_admin_resets(page, server):
