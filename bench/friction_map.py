@@ -60,6 +60,11 @@ def refuse_torqueless(mapping: dict, names: list, meta: dict, rate_given: bool, 
     if rate_given or own_times or has["t"] or has["q"] or has["tau"] or not has["qd"] or "sample_rate" in meta:
         return
     from bench.header_units import split_unit
+    from bench.joint_columns import labels_in
+    if len(joints := labels_in(names, motion=())) > 1:     # "velocity, friction_joint1, friction_joint2"
+        how = "N" if joints[0].isdigit() else "NAME"
+        raise InputError(f"{name}: a map of several joints' friction ({', '.join(joints)}) beside one velocity "
+                         f"({mapping['qd']}): choose one with --joint {how}")
     shown = ", ".join(map(str, names[:40])) + (" ..." if len(names) > 40 else "")
     qd = split_unit(str(mapping["qd"]))[0]      # a mapping may leave out the unit (column_names.by_bare_name)
     raise InputError(f"{name}: a velocity column ({mapping['qd']}) and no time or position, but no column "

@@ -61,25 +61,27 @@ def joint_columns(names: list[str], label: str) -> dict[str, str]:
     return out
 
 
-def labels_in(names: list[str]) -> list[str]:
-    """The labels that pick a torque and a position out of ``names`` as ``--joint`` would: the
-    joints of a log of several, named in the refusal of a file read without one.  Numbers
-    ("q3"); where none does, the folders of path-like names, a joint named by words alone
-    (PlotJuggler's ``/joint_states/shoulder_pan_joint/effort``), leaving out a folder that
-    holds another's columns (``joint_states``)."""
+def labels_in(names: list[str], motion: tuple = ("q", "qd")) -> list[str]:
+    """The labels that pick a torque and a position or a velocity (``motion``: any of these; none:
+    a torque alone) out of ``names`` as ``--joint`` would: the joints of a log of several, named
+    in the refusal of a file read without one.  Numbers ("q3"); where none does, the folders of
+    path-like names, a joint named by words alone (PlotJuggler's
+    ``/joint_states/shoulder_pan_joint/effort``), leaving out a folder that holds another's
+    columns (``joint_states``).  A velocity is enough: a map of several joints ("dq2, tau_J2")
+    and a drive's speed-only log were told to map a time column."""
     numbers = dict.fromkeys(m for n in names for m in re.findall(r"(?<![0-9])[0-9]{1,3}(?![0-9])", str(n)))
-    out = _picking(names, list(numbers)[:100])
+    out = _picking(names, list(numbers)[:100], motion)
     if len(out) > 1:
         return list(out)
     folders = dict.fromkeys(p for n in names for p in str(n).split("/")[:-1]
                             if re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-.]*", p))
     # one label per set of columns (a joint's own folder is the deeper one), none holding another's
-    out = {frozenset(cols): label for label, cols in _picking(names, list(folders)[:100]).items()}
+    out = {frozenset(cols): label for label, cols in _picking(names, list(folders)[:100], motion).items()}
     return [label for cols, label in out.items() if not any(other < cols for other in out)]
 
 
-def _picking(names: list[str], labels: list[str]) -> dict[str, set]:
-    """{label: its columns} for the ``labels`` whose columns hold a torque and a position."""
+def _picking(names: list[str], labels: list[str], motion: tuple) -> dict[str, set]:
+    """{label: its columns} for the ``labels`` whose columns hold a torque and one of ``motion``."""
     from bench.column_names import find_roles
     out = {}
     for label in labels:
@@ -87,8 +89,8 @@ def _picking(names: list[str], labels: list[str]) -> dict[str, set]:
             renamed = joint_columns(names, label)
         except InputError:      # a number that is a whole name (a headerless file's "1")
             continue
-        found, _ = find_roles(list(renamed), ("tau", "q"), set())
-        if len(found) == 2:
+        found, _ = find_roles(list(renamed), ("tau", *motion), set())
+        if "tau" in found and (not motion or set(motion) & set(found)):
             out[label] = set(renamed.values())
     return out
 
@@ -104,8 +106,10 @@ def refuse_unfound(mapping: dict, names: list[str], joint: str | None, name: str
         return
     if joint is None and len(joints := labels_in(names)) > 1:
         how = "N" if joints[0].isdigit() else "NAME"
+        timed = mapping.get("t") in names or mapping.get("q") in names
         raise InputError(f"{name}: a log of several joints ({', '.join(joints)}): choose one with "
-                         f"--joint {how}, or map its columns with --columns t=NAME,tau=NAME,q=NAME")
+                         f"--joint {how}, or map its columns with --columns t=NAME,tau=NAME,q=NAME"
+                         + ("" if timed else " (a friction-velocity map, a row per speed: qd=NAME,tau=NAME)"))
     if joint is not None:
         own = ", ".join(map(str, joint_columns(names, joint).values()))
         raise InputError(f"{name}: joint {joint}'s columns ({own}) hold no {' and no '.join(what[r] for r in lacking)} "

@@ -224,3 +224,29 @@ def test_a_map_of_means_beside_their_spread_and_a_map_of_motor_current(tmp_path)
     assert "--columns qd=velocity,tau=NAME" in r.stderr and "--torque-unit K*N*m" in r.stderr, r.stderr
     doc = _doc(current, columns="qd=velocity,tau=current", torque_unit="0.08*N*m")
     assert abs(doc["parameters"]["Fc"] / spec.friction.Fc - 1) < 0.03, doc["parameters"]
+
+
+def test_a_map_of_several_joints_is_told_its_joints_and_read_one_by_one(tmp_path):
+    """An arm's maps in one table, a velocity and a friction per joint ("dq2, tau_J2") or one
+    velocity beside each joint's friction: read without --joint each is told its joints (they
+    were asked for a time column, or told no torque was named); with it, that joint's map."""
+    from bench.lugre import LuGreParams
+    rng = np.random.default_rng(10362)
+    speeds = np.geomspace(0.02, 2.0, 10)
+    v = np.concatenate([speeds, -speeds])
+    truth = {j: LuGreParams(2.0 * j, 2.6 * j, 8.0, 0.0, 0.0, 0.5 * j) for j in (1, 2, 3)}
+    F = {j: p.steady_state(v) + rng.normal(0.0, 0.01, len(v)) for j, p in truth.items()}
+    pairs = tmp_path / "pairs.csv"
+    np.savetxt(pairs, np.column_stack([x for j in truth for x in (v, F[j])]), delimiter=",", comments="",
+               header=",".join(f"dq{j},tau_J{j}" for j in truth))
+    shared = tmp_path / "shared.csv"
+    np.savetxt(shared, np.column_stack([v, *F.values()]), delimiter=",", comments="",
+               header="velocity," + ",".join(f"friction_joint{j}" for j in truth))
+    for path, words in ((pairs, "qd=NAME,tau=NAME"), (shared, "beside one velocity")):
+        r = _bench("analyze", path)
+        assert r.returncode == 2 and "several joints" in r.stderr and "(1, 2, 3)" in r.stderr, r.stderr
+        assert words in r.stderr and "--joint N" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        for j in (2, 3):
+            doc = _doc(path, joint=str(j))
+            assert doc["record"] == "friction_map"
+            assert doc["parameters"]["Fc"] == pytest.approx(truth[j].Fc, rel=0.02), (path.name, j, doc["parameters"])
