@@ -42,10 +42,13 @@ class FrictionMap:
         return f"{q}/s", tau
 
 
+# metadata lines stating the rows' rate: rows of samples in time, not map points
+RATE_KEYS = ("sample_rate", "sample_period", "dt", "sampling_rate", "sample_interval", "rate_hz")
+
+
 def is_map(mapping: dict, names: list, meta: dict, rate_given: bool, own_times: bool) -> bool:
     """A velocity and a torque column, no time, no position and no rate: rows are map points."""
-    if rate_given or own_times or any(k in meta for k in ("sample_rate", "sample_period", "dt",
-                                                          "sampling_rate", "sample_interval", "rate_hz")):
+    if rate_given or own_times or any(k in meta for k in RATE_KEYS):
         return False
     has = {r: column_index(mapping.get(r), names) is not None for r in ("t", "q", "qd", "tau")}
     return has["qd"] and has["tau"] and not has["t"] and not has["q"]
@@ -57,7 +60,7 @@ def refuse_torqueless(mapping: dict, names: list, meta: dict, rate_given: bool, 
     is named otherwise ("current [A]", "Reibmoment").  Asked for a time column, its user could
     not help; asked for the torque, one can."""
     has = {r: column_index(mapping.get(r), names) is not None for r in ("t", "q", "qd", "tau")}
-    if rate_given or own_times or has["t"] or has["q"] or has["tau"] or not has["qd"] or "sample_rate" in meta:
+    if rate_given or own_times or has["t"] or has["q"] or has["tau"] or not has["qd"] or any(k in meta for k in RATE_KEYS):
         return
     from bench.header_units import split_unit
     from bench.joint_columns import labels_in
