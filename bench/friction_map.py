@@ -50,8 +50,13 @@ def is_map(mapping: dict, names: list, meta: dict, rate_given: bool, own_times: 
     """A velocity and a torque column, no time, no position and no rate: rows are map points."""
     if rate_given or own_times or any(k in meta for k in RATE_KEYS):
         return False
-    has = {r: column_index(mapping.get(r), names) is not None for r in ("t", "q", "qd", "tau")}
+    has = _present(mapping, names)
     return has["qd"] and has["tau"] and not has["t"] and not has["q"]
+
+
+def _present(mapping: dict, names: list) -> dict:
+    """Which of the roles the mapping names a column of the file for."""
+    return {r: column_index(mapping.get(r), names) is not None for r in ("t", "q", "qd", "tau")}
 
 
 def refuse_torqueless(mapping: dict, names: list, meta: dict, rate_given: bool, own_times: bool,
@@ -59,7 +64,7 @@ def refuse_torqueless(mapping: dict, names: list, meta: dict, rate_given: bool, 
     """A velocity column, no time, no position and no torque found: a map whose friction column
     is named otherwise ("current [A]", "Reibmoment").  Asked for a time column, its user could
     not help; asked for the torque, one can."""
-    has = {r: column_index(mapping.get(r), names) is not None for r in ("t", "q", "qd", "tau")}
+    has = _present(mapping, names)
     if rate_given or own_times or has["t"] or has["q"] or has["tau"] or not has["qd"] or any(k in meta for k in RATE_KEYS):
         return
     from bench.header_units import split_unit

@@ -348,7 +348,7 @@ def make(spec: JointSpec, rec: Recording, duration: float, seed: int = 0,
         q_ref, v_ref = velocity_sweep.reference(spec, rec.speeds, dt)
         q_ref = np.concatenate([q_ref, np.full(max(0, n - len(q_ref)), q_ref[-1])])[:n]
         v_ref = np.concatenate([v_ref, np.zeros(max(0, n - len(v_ref)))])[:n]
-        comps = ((1.0, 1.0),)         # no sines: the default loop (wn 60 rad/s) unless --bandwidth
+        comps = velocity_sweep.NO_SINES
     elif rec.excitation == "pd":
         comps = reference_components(spec, rec)
         q_ref, v_ref = pd_reference(comps, centred(spec), t)

@@ -26,6 +26,9 @@ CATCH_UP = 5.0
 MIN_AVERAGED = 0.1       # s averaged at least per pass: faster speeds than allow this are left out
 DWELL = 0.2              # s held at each end
 MAX_LEVELS = 40
+# the PD loop's reference "sines" for recording.pd_gains: none, so the default loop (wn 60 rad/s)
+# unless --bandwidth; make() closes the loop with it and map_points() reads its kp
+NO_SINES = ((1.0, 1.0),)
 
 
 def speeds(spec, levels: int) -> np.ndarray:
@@ -106,7 +109,7 @@ def map_points(record, truth) -> tuple[np.ndarray, np.ndarray]:
     from virtual_drives.recording import pd_gains
     dt = truth.t[1] - truth.t[0]
     t0 = record.t[0] - truth.t[0]             # a logger's clock may start elsewhere
-    kp, _ = pd_gains(truth.spec, truth.recording, ((1.0, 1.0),))
+    kp, _ = pd_gains(truth.spec, truth.recording, NO_SINES)
     v_out, F_out = [], []
     f = truth.friction_params
     for a, b in stretches(np.gradient(truth.q_ref, dt), dt, f.Fs / kp + f.Fs / f.sigma0):

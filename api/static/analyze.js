@@ -104,12 +104,12 @@ function show(doc, name, added) {
   $("#an-verdict").className = left && left.structured ? "error" : "";
   $("#an-evidence").textContent = left ? left.evidence : "";
   const b = doc.baseline, f = doc.final;
-  $("#an-fall").textContent = b && f
-    ? `Held-out error: LuGre only ${fmt(b.rms_error)} → with ${f.effects.length ? f.effects.join(", ") : "no effect"} `
-      + `${fmt(f.rms_error)} (${fall(b.rms_error, f.rms_error)})` : "";
+  const change = b && f ? `${fmt(b.rms_error)} → ${fmt(f.rms_error)} (${fall(b.rms_error, f.rms_error)})` : null;
+  $("#an-fall").textContent = change
+    ? `Held-out error, LuGre only → with ${f.effects.length ? f.effects.join(", ") : "no effect"}: ${change}` : "";
   $("#an-history tbody").prepend(el("tr", {"data-run": ++runs},
     el("td", {}, String(runs)), el("td", {}, name), el("td", {}, added || "–"), el("td", {}, named.join(", ") || "–"),
-    el("td", {class: "fall"}, b && f ? `${fmt(b.rms_error)} → ${fmt(f.rms_error)} (${fall(b.rms_error, f.rms_error)})` : fmt(doc.fit && doc.fit.rms_error)),
+    el("td", {class: "fall"}, change || fmt(doc.fit && doc.fit.rms_error)),
     el("td", {}, !left ? "–" : left.structured ? "unexplained" : "nothing")));
   const unc = doc.uncertainty || {}, ok = doc.identifiable || {};
   $("#an-params tbody").replaceChildren(...Object.entries(doc.parameters).map(([k, v]) =>

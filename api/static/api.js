@@ -38,13 +38,16 @@ async function fail(r) {
   return new ApiError(r.status, detail, errors);
 }
 
-async function send(method, path, body) {
-  const init = {method, headers: headers(body !== undefined ? {"content-type": "application/json"} : {})};
-  if (body !== undefined) init.body = JSON.stringify(body);
+// a FormData body goes as multipart (the browser sets its boundary), anything else as JSON
+async function send(method, path, body, signal) {
+  const form = body instanceof FormData;
+  const init = {method, signal, headers: headers(body !== undefined && !form ? {"content-type": "application/json"} : {})};
+  if (body !== undefined) init.body = form ? body : JSON.stringify(body);
   let r;
   try {
     r = await fetch(path, init);
   } catch (e) {
+    if (signal && signal.aborted) throw new ApiError(0, "cancelled");
     throw new ApiError(0, "cannot reach the bench service (is bench serve running?)");
   }
   if (!r.ok) throw await fail(r);
@@ -57,15 +60,7 @@ export async function get(path) { return (await send("GET", path)).json(); }
 export async function upload(path, file, signal) {
   const form = new FormData();
   form.append("file", file, file.name);
-  let r;
-  try {
-    r = await fetch(path, {method: "POST", headers: headers(), body: form, signal});
-  } catch (e) {
-    if (signal && signal.aborted) throw new ApiError(0, "cancelled");
-    throw new ApiError(0, "cannot reach the bench service (is bench serve running?)");
-  }
-  if (!r.ok) throw await fail(r);
-  return r.json();
+  return (await send("POST", path, form, signal)).json();
 }
 export async function post(path, body) { return (await send("POST", path, body)).json(); }
 export async function put(path, body) { return (await send("PUT", path, body)).json(); }
