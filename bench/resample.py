@@ -42,6 +42,12 @@ GAP_MAX_STEPS = 8.0
 EVEN_TOL = 0.01
 # a segment with fewer grid samples than this is dropped (reported): nothing can be filtered
 MIN_SEGMENT_SAMPLES = 4
+# ... or shorter than this: the comparison grid (bench.signals.condition: 10 samples per cutoff
+# period, the default cutoff at least 5 Hz) steps up to 20 ms, and its three-stage box average
+# leaves MIN_SEGMENT_SAMPLES of a segment only from 3 + 3 grid steps on; a shorter one left an
+# empty grid segment that broke the breakaway count (soak seed 30027: 11 ms kept after a
+# standstill cut at 2 kHz).  Its filter edges (3 / cutoff each side) cover it whole anyway.
+MIN_SEGMENT_TIME = (3 + MIN_SEGMENT_SAMPLES - 1) / (10.0 * 5.0)
 
 
 def increasing(t: np.ndarray, name: str) -> None:
@@ -117,7 +123,7 @@ def regularise(rec: Record, name: str = "record") -> Record:
     dropped: list[dict] = []
     for a, b in pieces_raw:
         ts = t[a:b]
-        if _grid_length(ts, h) < MIN_SEGMENT_SAMPLES or b - a < 2:
+        if _grid_length(ts, h) < MIN_SEGMENT_SAMPLES or b - a < 2 or ts[-1] - ts[0] < MIN_SEGMENT_TIME:
             dropped.append(_segment(ts))
         else:
             ranges.append((int(a), int(b)))

@@ -311,6 +311,12 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     decim = max(1, int(fs / (10.0 * fc)))
     sos = signal.butter(4, fc, fs=fs / decim, output="sos")
     bounds = rec.segment_bounds()
+    short = [(a, b) for a, b in bounds if len(box_average(np.zeros(b - a), decim)) < 4]
+    if short:   # bench.resample drops segments too short for the default cutoff's grid
+        a, b = short[0]
+        raise InputError(f"{name}: a segment of {(b - a) * dt:.3g} s at t = {t[a] - t[0]:.4g} s is too short for "
+                         f"the comparison grid of a {fc:g} Hz cutoff (a step of {decim * dt:.3g} s): "
+                         f"raise --cutoff or leave it to its default")
     band = velocity_band(q, bounds, dt, fc, rec.load_encoder)
     sos_v = signal.butter(2, band, fs=fs, output="sos")
     use_qd, source = velocity_source(rec, dt, name, sos_v)
