@@ -41,3 +41,44 @@ def test_a_jittered_logger_is_not_on_a_clock():
     doc = analyze_record(rec, diagnose_effects=False).report()
     assert doc["resampling"]["resampled"] and "on_clock" not in doc["resampling"]
     assert doc["fit"]["torque_hold"] == "sample"
+
+
+def _with_a_short_tail(rec, dt, tail):
+    """``rec`` whose logger, after a 0.2 s stall, wrote ``tail`` s more of the motion (the
+    last samples of a log that stopped): a segment of its own after the gap."""
+    from bench.records import Record
+    k = len(rec.t) - int(round((0.2 + tail) / dt))
+    keep = np.r_[np.arange(k), np.arange(len(rec.t) - int(round(tail / dt)), len(rec.t))]
+    return Record(t=rec.t[keep], tau=rec.tau[keep], q=rec.q[keep], meta=dict(rec.meta))
+
+
+@pytest.mark.parametrize("joint,seed,dt,tail", [("j1", 10363, 5e-4, 0.011), ("j3", 10364, 2e-3, 0.05)])
+def test_a_segment_too_short_for_the_comparison_grid_is_dropped_and_said(joint, seed, dt, tail):
+    """A few milliseconds after a logger's stall at the end of a log: too short for the comparison
+    grid (its step is up to 20 ms), it is dropped and reported, and the rest is analysed as the
+    log without it is.  Kept, it left an empty grid segment and the breakaway count raised
+    IndexError (an 11 ms tail after a standstill cut at 2 kHz, soak seed 30027)."""
+    from bench.records import Record
+    spec = PRESETS[joint]
+    rec, _ = independent_record(spec, duration=12.0, seed=seed, dt=dt, drop=0.002,
+                                disturbance=0.01 * spec.friction.Fc)
+    doc = analyze_record(_with_a_short_tail(rec, dt, tail)).report()
+    rs = doc["resampling"]
+    assert rs["gaps"] >= 1 and len(rs["segments_dropped"]) == 1, rs
+    d = rs["segments_dropped"][0]
+    assert d["t_end"] - d["t_start"] < 0.12, d
+    k = rec.t < rec.t[-1] - 0.2 - tail
+    alone = analyze_record(Record(t=rec.t[k], tau=rec.tau[k], q=rec.q[k], meta=dict(rec.meta))).report()
+    for key in ("Fc", "Fs", "sigma2"):
+        assert doc["parameters"][key] == pytest.approx(alone["parameters"][key], rel=0.005), key
+    assert [e["effect"] for e in doc["diagnosis"] if e["significant"]] == \
+        [e["effect"] for e in alone["diagnosis"] if e["significant"]]
+    assert doc["unexplained"]["structured"] == alone["unexplained"]["structured"]
+
+
+def test_an_explicit_cutoff_too_low_for_a_segment_is_one_line():
+    from bench.errors import InputError
+    spec = PRESETS["j2"]
+    rec, _ = independent_record(spec, duration=8.0, seed=10365, drop=0.002)
+    with pytest.raises(InputError, match=r"too short for the comparison grid of a 0.5 Hz cutoff.*raise --cutoff"):
+        analyze_record(_with_a_short_tail(rec, 1e-3, 0.15), cutoff=0.5)
