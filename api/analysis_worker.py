@@ -26,10 +26,11 @@ def _init(abandoned) -> None:
 
 
 def analyze_upload(job: int, raw: bytes, name: str, options: dict, effects, diagnose: bool,
-                   plots: bool = False) -> dict:
+                   plots: bool = False, residuals: bool = False) -> dict:
     """In the analysis process: read, identify, diagnose; InputError travels back pickled,
     and ``bench.checkpoint.Stopped`` once the job is abandoned.  ``plots``: the report's
-    plots too, as PNG data: URIs under ``plots`` (the technician's page shows them)."""
+    plots too, as PNG data: URIs under ``plots`` (the technician's page shows them);
+    ``residuals``: ``bench analyze --residuals``'s CSV as text under ``residuals_csv``."""
     import json
 
     from bench.analysis import analyze_record
@@ -43,6 +44,13 @@ def analyze_upload(job: int, raw: bytes, name: str, options: dict, effects, diag
     if plots:
         from bench.report_html import plots_as_data
         doc["plots"] = plots_as_data(result)
+    if residuals:       # the very file the command line writes: one writer, one format
+        import tempfile
+        from pathlib import Path
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "residuals.csv"
+            result.write_residuals(path)
+            doc["residuals_csv"] = path.read_text()
     return doc
 
 

@@ -141,25 +141,28 @@ async def analyze(request: Request, inertia: Optional[str] = Query(None, max_len
                   add: Optional[str] = Query(None, max_length=200, description="effects to add, comma-separated"),
                   diagnose: bool = Query(True, description="diagnose what the LuGre model misses"),
                   plots: bool = Query(False, description="add the report's plots as PNG data: URIs (`plots`)"),
+                  residuals: bool = Query(False, description="add `bench analyze --residuals`'s CSV as text "
+                                                             "(`residuals_csv`): t, measured, baseline, final, "
+                                                             "held_out at the file's own timestamps"),
                   svc: Service = Depends(service), _=Depends(operator)):
     # the core speaks bench analyze's options; a poster of files is told the query parameters
     from api.wording import in_api_words, report_in_api_words
     try:
         doc = await _analyze(request, svc, inertia, columns, joint, joint_type, time_unit, window,
-                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots, encoder)
+                             sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots, encoder,
+                             residuals)
     except InputError as e:
         raise type(e)(in_api_words(str(e))) from None
     if isinstance(doc, Response):
         return doc
-    pictures = doc.pop("plots", None)        # megabytes of base64: not words to translate
-    doc = report_in_api_words(doc)
-    if pictures is not None:
-        doc["plots"] = pictures
-    return doc
+    # megabytes of base64 and of rows: not words to translate
+    kept = {k: doc.pop(k) for k in ("plots", "residuals_csv") if k in doc}
+    return {**report_in_api_words(doc), **kept}
 
 
 async def _analyze(request: Request, svc: Service, inertia, columns, joint, joint_type, time_unit, window,
-                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots, encoder):
+                   sample_rate, position_unit, torque_unit, torque_hold, add, diagnose, plots, encoder,
+                   residuals=False):
     name, raw = await _upload(request)
     from bench.readers import parse_columns, parse_window
     from bench.records import inertia_setting
@@ -177,7 +180,7 @@ async def _analyze(request: Request, svc: Service, inertia, columns, joint, join
     worker = svc.analysis_pool
     waiting = None
     try:
-        job, fut = worker.submit(raw, name, options, effects, diagnose, plots)
+        job, fut = worker.submit(raw, name, options, effects, diagnose, plots, residuals)
         waiting = asyncio.wrap_future(fut)
         while True:
             done, _ = await asyncio.wait({waiting}, timeout=POLL_DISCONNECT)

@@ -18,11 +18,15 @@ const PLOTS = [["map", "Friction-velocity map: the LuGre fit"], ["friction_map",
 let abort = null;
 let runs = 0;
 let pending = null;     // a run's trace brought from the history, analysed in place of a chosen file
+let residuals = null;   // the last analysis's residuals CSV {text, name}, saved on request
 
 export const view = {
   init() {
     $("#analyze-form").onsubmit = ev => { ev.preventDefault(); analyze(); };
     $("#an-cancel").onclick = () => { if (abort) abort.abort(); };
+    $("#an-residuals").onclick = () => {
+      if (residuals) api.save(new Blob([residuals.text], {type: "text/csv"}), residuals.name);
+    };
     $("#an-file").onchange = () => { pending = null; $("#an-trace").textContent = ""; };
     loadEffects();
   },
@@ -65,6 +69,7 @@ function query() {
   if (add.length) q.set("add", add.join(","));
   if (!form.elements.diagnose.checked) q.set("diagnose", "false");
   q.set("plots", "true");
+  q.set("residuals", "true");     // bench analyze --residuals: the comparison at the file's own times
   return q;
 }
 
@@ -81,6 +86,8 @@ async function analyze() {
   try {
     const doc = await api.upload(`/analyze?${q}`, file, abort.signal);
     show(doc, file.name, q.get("add") || "");
+    residuals = {text: doc.residuals_csv, name: file.name.replace(/\.[^.]*$/, "") + "-residuals.csv"};
+    $("#an-residuals").hidden = !doc.residuals_csv;
   } catch (e) {
     // the API's one line (422: what is wrong with the file or the options; 413: too large)
     $("#an-msg").textContent = e.message;

@@ -107,7 +107,11 @@ export async function events(path, onEvent, signal) {
 
 // Save or show something fetched with the key: a Blob URL, so the key stays out of the URL.
 export async function download(path, filename) {
-  const b = await blob(path);
+  save(await blob(path), filename);
+}
+
+// Save a Blob the page already holds (an analysis's residuals) as a file.
+export function save(b, filename) {
   const url = URL.createObjectURL(b);
   const a = document.createElement("a");
   a.href = url;

@@ -414,3 +414,56 @@ def test_analyze_with_plots_and_the_effect_library(operator, observer, live):
     assert httpx.get(live.url + "/effects").status_code == 401
     r = operator.post("/analyze", content=table, headers={"content-type": "text/csv"}, params={"encoder": "side"})
     assert r.status_code == 422 and "encoder" in r.text, r.text
+
+
+def test_analyze_returns_the_residuals_at_the_files_own_timestamps(operator, tmp_path):
+    """``residuals=true`` adds ``bench analyze --residuals``'s CSV as text: for a robot-shaped
+    log (its own column names, a friction column, a jittered logger with lost samples, time
+    in ms) the very rows the command line writes, one per row of the upload, at its own times;
+    a map's are one per point.  Only when asked."""
+    import csv
+    import io
+
+    import numpy as np
+
+    from bench.analysis import analyze_record
+    from bench.readers import read_record
+    from independent_joint import independent_record
+
+    spec = preset("j2")
+    rec, _ = independent_record(spec, duration=8.0, seed=10366, jitter=0.3, drop=0.01,
+                                disturbance=0.01 * spec.friction.Fc)
+    friction = rec.tau - spec.inertia * np.gradient(np.gradient(rec.q, rec.t), rec.t)
+    body = "time_ms,joint_pos,tau_fric\n" + "".join(
+        f"{t * 1e3:.3f},{q:.9g},{f:.9g}\n" for t, q, f in zip(rec.t, rec.q, friction))
+    params = {"columns": "t=time_ms,q=joint_pos,tau=tau_fric", "inertia": "0", "time_unit": "ms"}
+    r = operator.post("/analyze", files={"file": ("log.csv", body, "text/csv")},
+                      params={**params, "residuals": "true"}, timeout=180)
+    assert r.status_code == 200, r.text
+    text = r.json()["residuals_csv"]
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert list(rows[0]) == ["t", "measured", "baseline", "final", "held_out"]
+    assert len(rows) == len(rec.t)
+    assert np.allclose([float(row["t"]) for row in rows], rec.t * 1e3, atol=5e-4)
+    assert {row["held_out"] for row in rows} == {"0", "1"}
+    measured = np.array([float(row["measured"]) for row in rows])
+    assert np.isfinite(measured).mean() > 0.9
+    # the command line's file, from the same bytes and options
+    path = tmp_path / "log.csv"
+    path.write_text(body)
+    local = analyze_record(read_record(path, columns=params["columns"], inertia=0.0, time_unit="ms"),
+                           inertia=0.0)
+    local.write_residuals(tmp_path / "res.csv")
+    assert text == (tmp_path / "res.csv").read_text()
+    r = operator.post("/analyze", files={"file": ("log.csv", body, "text/csv")},
+                      params={**params, "diagnose": "false"}, timeout=180)
+    assert r.status_code == 200 and "residuals_csv" not in r.json()
+    # a map: a row per point, by velocity
+    speeds = np.geomspace(0.02, 3.0, 8)
+    table = "velocity,torque\n" + "".join(f"{v:.6g},{np.sign(v) * (3 + 1.5 * abs(v)):.6g}\n"
+                                          for v in np.concatenate([speeds, -speeds]))
+    r = operator.post("/analyze", content=table, headers={"content-type": "text/csv"},
+                      params={"residuals": "true", "diagnose": "false"}, timeout=60)
+    assert r.status_code == 200, r.text
+    lines = r.json()["residuals_csv"].splitlines()
+    assert lines[0] == "velocity,measured,baseline,final,held_out" and len(lines) == 17

@@ -276,6 +276,13 @@ def test_browser_analyzes_a_robots_log_and_the_error_falls(page, server, tmp_pat
     pw.expect(page.locator("#an-plots img")).to_have_count(len(["map", "presliding", "inertia", "residual_baseline",
                                                                "step1", "error_fall"]))
     assert page.evaluate("[...document.querySelectorAll('#an-plots img')].every(i => i.complete && i.naturalWidth > 300)")
+    # the residuals at the file's own times, a row per row of the log, saved as a file
+    with page.expect_download() as dl:
+        page.click("#an-residuals")
+    assert dl.value.suggested_filename == "arm_log-residuals.csv"
+    rows = Path(dl.value.path()).read_text().splitlines()
+    assert rows[0] == "t,measured,baseline,final,held_out" and len(rows) == len(rec.t) + 1
+    assert float(rows[-1].split(",")[0]) == pytest.approx(rec.t[-1])
     # the technician ticks an effect the diagnosis did not name: fitted, shown as added
     page.check("input[name=add][value=torque_offset]")
     page.click("#an-run")
