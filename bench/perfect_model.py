@@ -28,6 +28,7 @@ from scipy.interpolate import CubicSpline
 
 from bench.fitting import LUGRE_KEYS, FitData, predict
 from bench.lugre import LuGreParams, model_friction
+from bench.model_trace import segment_z0
 from bench.records import Record
 from bench.resample import reading_resolution
 from bench.grid_math import filtfilt, second_difference
@@ -112,9 +113,15 @@ def replay(rec: Record, data: FitData, values: dict, inertia: float, cutoff: flo
     q_true = np.empty_like(rec.q)
     tau = np.empty_like(rec.q)
     friction = np.empty_like(rec.q)
-    for a, b in rec.segment_bounds():
+    for k, (a, b) in enumerate(rec.segment_bounds()):
         qs = filtfilt(sos, rec.q[a:b])
-        F, _ = model_friction(params, qs, c.dt)
+        # each segment's bristles start where the fit starts them (bench.model_trace.segment_z0):
+        # from rest, a twin started unloaded against a model started at the held friction
+        # left the whole rest in its residual -- j1 holding its pose under a PID across a
+        # logger's gap: 59 N*m of "perfect model" residual (the record's own: 8), and no
+        # structure could be called (soak seed 30103)
+        z0 = data.z0 if k == 0 or k >= len(c.grid_segments) else segment_z0(data, values, k, c.grid_segments[k][0])
+        F, _ = model_friction(params, qs, c.dt, z0)
         q_true[a:b], friction[a:b] = qs, F
         tau[a:b] = inertia * second_difference(qs, c.dt) + F
     layout = rec.reading.get("layout")
