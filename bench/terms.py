@@ -197,12 +197,14 @@ def load_step(ql, vl, qm0, qm1, h, gap, w2, c2):
 
 
 @njit(cache=True)
-def load_trajectory(qm, dt, n_sub, gap, w2, c2):
+def load_trajectory(qm, dt, n_sub, gap, w2, c2, lag0=0.0, v0=0.0):
     """Load position at the samples of a motor trajectory ``qm`` (linear between samples, cut
-    into ``n_sub`` steps), starting at rest, centred in the gap, as the virtual joint starts."""
+    into ``n_sub`` steps), starting ``lag0`` behind the motor at speed ``v0``: by default at
+    rest, centred in the gap, as the virtual joint starts (``bench.gear_model.load_start``:
+    a segment that starts in motion, after a logger's gap)."""
     n = qm.shape[0]
     ql = np.empty(n)
-    q, v = qm[0], 0.0
+    q, v = qm[0] - lag0, v0
     h = dt / n_sub
     for i in range(n):
         ql[i] = q
@@ -262,14 +264,15 @@ def load_step_friction(ql, vl, zl, qm0, qm1, h, gap, w2, c2, p, kappa):
 
 
 @njit(cache=True)
-def load_trajectory_friction(qm, dt, n_sub, gap, w2, c2, p, kappa, z0):
+def load_trajectory_friction(qm, dt, n_sub, gap, w2, c2, p, kappa, z0, lag0=0.0, v0=0.0):
     """``load_trajectory`` for a load with friction (``load_step_friction``): the load's
     position at the samples, and its mean friction F(v_l) over each sample interval (per unit
-    share), starting at rest with bristle state ``z0``."""
+    share), starting ``lag0`` behind the motor at speed ``v0`` (default: at rest) with bristle
+    state ``z0``."""
     n = qm.shape[0]
     ql = np.empty(n)
     Fi = np.zeros(max(n - 1, 0))
-    q, v, z = qm[0], 0.0, z0
+    q, v, z = qm[0] - lag0, v0, z0
     h = dt / n_sub
     for i in range(n):
         ql[i] = q
