@@ -76,11 +76,10 @@ def _gear_term(c: Conditioned, width: float, frequency: float, damping: float) -
 def load_start(c: Conditioned, ia: int, ib: int, gap: float) -> tuple[float, float]:
     """(how far the load lags the motor, its speed) where a segment starts: with the motor, on
     the driving flank, where it slides (a segment after a gap, a log cut from a longer one),
-    else at rest in the gap's centre.  A segment after a
-    logger's gap starts in motion; started at rest there, the load rang through the rest of it
-    -- a 5.3 Hz gear of damping 0.05 on j4, one gap from 0.8 % of a jittered logger's samples
-    lost: the joint's flexibility fitted with its frequency right explained -90 % of the
-    held-out residual where it explains 85 % without the gap (soak seed 30089)."""
+    else at rest in the gap's centre.  Started at rest in the middle of a motion, the load rang
+    through the segment: a 5.3 Hz gear of damping 0.05 on j4, one gap from 0.8 % of a jittered
+    logger's samples lost, fitted with its frequency right, explained -90 % of the held-out
+    residual, 85 % without the gap (soak seed 30089)."""
     if ib - ia < 2:
         return 0.0, 0.0
     v0 = 1.5 * float(c.v_mid[ia]) - 0.5 * float(c.v_mid[ia + 1])   # at the first sample, not over
