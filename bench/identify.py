@@ -74,7 +74,7 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
     mask = np.zeros(len(c.t), dtype=bool)
     edge = math.ceil(3.0 / (c.cutoff * c.dt_grid))      # the filter's edge transient
     settle = int(0.25 / (c.frequency * c.dt_grid))      # the bristle start-up
-    if len(c.segments) == 1:
+    if len(c.segments) == 1 and not c.rest_starts:
         n = len(c.t)
         edge = int(min(n // 10, edge))
         mask[max(edge, settle):n - edge] = True

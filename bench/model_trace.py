@@ -109,7 +109,7 @@ def lugre_samples(data: FitData, p: dict, level: np.ndarray, visc: np.ndarray,
     v = c.v_mid if v is None else v
     args = (p["Fc"], p["Fs"], p["alpha"], p["delta"], p["sigma0"], p["sigma1"], p["sigma2"])
     damp = ones(len(v)) if damp is None else damp
-    if len(c.segments) == 1:
+    if len(c.segments) == 1 and not add0:
         F, _ = friction_trace(v, c.dt, data.z0, *args, level, visc, damp)
         return interval_to_samples(F)
     parts = []
