@@ -27,6 +27,7 @@ from scipy.interpolate import PchipInterpolator
 from bench import standstill
 from bench.errors import InputError
 from bench.records import Record
+from bench.signals import MIN_SEGMENT_SAMPLES
 
 # A gap: a step longer than 3 median steps *and* twice the record's own long steps (its 95th
 # percentile).  An even record's steps are all the median, so 3 median steps decide there.  A PC
@@ -40,8 +41,7 @@ GAP_TYPICAL = 2.0
 GAP_MAX_STEPS = 8.0
 # evenly sampled: every step within 1 % of the median (as bench.records.validate checks)
 EVEN_TOL = 0.01
-# a segment with fewer grid samples than this is dropped (reported): nothing can be filtered
-MIN_SEGMENT_SAMPLES = 4
+# a segment with fewer grid samples than MIN_SEGMENT_SAMPLES is dropped (reported)
 # ... or shorter than this: the comparison grid (bench.signals.condition: 10 samples per cutoff
 # period, the default cutoff at least 5 Hz) steps up to 20 ms, and its three-stage box average
 # leaves MIN_SEGMENT_SAMPLES of a segment only from 3 + 3 grid steps on; a shorter one left an

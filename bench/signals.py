@@ -113,7 +113,7 @@ class Conditioned:
         """Segments of the comparison grid."""
         out, at = [], 0
         for a, b in self.segments:
-            n = len(box_average(np.zeros(b - a), self.decim))
+            n = grid_length(b - a, self.decim)
             out.append((at, at + n))
             at += n
         return out
@@ -137,6 +137,17 @@ def box_average(x: np.ndarray, d: int, stages: int = 3) -> np.ndarray:
     if d == 1:
         return x
     return _box_average(np.ascontiguousarray(x), int(d), int(stages))
+
+
+# a segment with fewer samples than this cannot be filtered (bench.resample drops it)
+MIN_SEGMENT_SAMPLES = 4
+
+
+def grid_length(n: int, d: int, stages: int = 3) -> int:
+    """How many samples ``box_average`` leaves of ``n``: each stage keeps n + 1 - d, then every d-th."""
+    if d == 1:
+        return n
+    return -(-max(n - stages * (d - 1), 0) // d)
 
 
 @njit(cache=True)
@@ -311,7 +322,7 @@ def condition(rec: Record, cutoff: float | None = None, min_cycles: float = 2.0,
     decim = max(1, int(fs / (10.0 * fc)))
     sos = signal.butter(4, fc, fs=fs / decim, output="sos")
     bounds = rec.segment_bounds()
-    short = [(a, b) for a, b in bounds if len(box_average(np.zeros(b - a), decim)) < 4]
+    short = [(a, b) for a, b in bounds if grid_length(b - a, decim) < MIN_SEGMENT_SAMPLES]
     if short:   # bench.resample drops segments too short for the default cutoff's grid
         a, b = short[0]
         raise InputError(f"{name}: a segment of {(b - a) * dt:.3g} s at t = {t[a] - t[0]:.4g} s is too short for "
