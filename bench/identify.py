@@ -107,6 +107,12 @@ def prepare(rec: Record, inertia: float | None = None, cutoff: float | None = No
 # refused, 0.95 (4 ms, 1895: identified, 0.47); records that never broke away (j1-j4, linear,
 # rotary at 0.5-0.9 Fs; j2 below Fc from the independent simulator) 0.0008-0.04.
 INERTIA_SWAMPS = 0.25
+# A top-speed map whose friction follows sgn(v) (sign agreement >= 0.9) but scatters about the
+# line down to this R^2 is still read (a gear ringing on its contact).  Measured 2026-12-07:
+# the linear stage's gap under a PID Fourier log 0.69 (soak seed 30243); the refusals it must
+# keep -- the rotary motor under PD with a 6 ms lag (1894, 1896, 10225) -- 0.15-0.30, and
+# there the sign agrees on only 60-69 % anyway.
+SCATTERED_R2 = 0.5
 
 
 def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = True,
@@ -165,13 +171,18 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = Tr
                 and min(np.sum(steady & (c.v > 0)), np.sum(steady & (c.v < 0))) >= 3):
             hi = steady
             coef, r2, agree, other = line(options[-1], hi)
-    if coef[0] <= 0 and r2 >= 0.8 and agree >= 0.9:
+    if coef[0] <= 0 and r2 >= SCATTERED_R2 and agree >= 0.9:
         # it slides (friction follows the motion's sign) but the map at top speed is steeper
         # than Coulomb plus viscous friction allows, its intercept <= 0: physics outside the
         # model (a torque constant falling at high current, tuning seeds 1005-1017 on j3) or a
         # map far into the Stribeck decay.  Start from the mean friction there and no viscous
         # term; the fit and the diagnosis say what is left, which a refusal would hide.
         return float(np.mean(np.abs(F[hi] - other[hi]))), 0.0, vmax, other
+    if SCATTERED_R2 <= r2 < 0.8 and agree >= 0.9:
+        # it slides, but the map there is scattered about the line: a gear's gap ringing on
+        # its contact under a PID's fast moves (SCATTERED_R2).  The line is a start; the fit
+        # and the diagnosis say what is left.
+        return float(coef[0]), float(max(coef[1], 0.0)), vmax, other
     if coef[0] <= 0 or r2 < 0.8 or agree < 0.9:
         why = (f"at its highest speeds friction does not follow sgn(v), even allowing for an offset "
                f"and gravity: R^2 {r2:.2f}, sign agreement {agree:.0%}")

@@ -40,3 +40,32 @@ def test_library_effects_on_fourier_trajectories_are_named_first():
              ("j2", 8433, "direction_asymmetry"), ("j3", 8434, "thermal_drift"), ("j2", 8435, "torque_lag")]
     rows = map_records(_library, items)
     assert sum(bool(r[4]) and r[4][0] == r[0] and not r[5] for r in rows) >= 5, rows
+
+
+def _gapped(joint, seed, width, dt):
+    """The independent simulator's gap (its teeth meet through a 60 Hz contact) on the linear
+    stage, a PID tracking a Fourier trajectory, logged at 1/dt with jitter and lost rows."""
+    from bench.analysis import analyze_record
+    from independent_joint import independent_record
+    spec = PRESETS[joint]
+    travel, Fc = _travel(spec), spec.friction.Fc
+    ref, _ = fourier_trajectory(travel, 6.0 / spec.friction.alpha, 30.0, np.random.default_rng([seed, 5]), dt=dt)
+    rec, _ = independent_record(spec, duration=30.0, seed=seed, dt=dt, backlash=width, torque_noise=0.02 * Fc,
+                                jitter=0.2, drop=0.005, pd=(6.0, 0.5 * travel, 1.5), reference=ref)
+    doc = analyze_record(rec).report()
+    return seed, [d["effect"] for d in doc["diagnosis"] if d["significant"]], \
+        doc["final"]["rms_error"] / doc["baseline"]["rms_error"]
+
+
+def test_a_gap_ringing_on_its_contact_under_fourier_moves_is_analysed_not_refused():
+    """At the top speeds of these moves the gap's contact rings, and the map there scatters
+    about Coulomb plus viscous friction (R^2 0.5-0.7) while its sign still follows the motion:
+    the linear stage's 2.2-3.5 mm gaps were refused as "a lag between the torque and the motion
+    or an inertia error" (soak seed 30243; these fresh seeds too, before
+    ``bench.identify.SCATTERED_R2``).  Analysed, the gap is named first and its fit takes
+    most of the residual (what the contact's spring leaves may still be flagged: the
+    independent simulator's gap is not rigid)."""
+    rows = map_records(_gapped, [("linear", 10383, 0.003, 5e-4), ("linear", 10385, 0.0035, 5e-4)])
+    for seed, named, ratio in rows:
+        assert named and named[0] == "backlash", (seed, named)
+        assert ratio <= 0.7, (seed, ratio)
