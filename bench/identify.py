@@ -191,9 +191,9 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = Tr
             raise NotIdentifiable(
                 f"{name}: friction cannot be read off this motion ({why}); there the inertial "
                 f"torque M q'' is {inertial:.2g}x the friction read, so a lag between the torque "
-                f"and the motion or an inertia error swamps it: check that torque and position "
-                f"share one clock and the declared inertia, or record a slower motion in which "
-                f"friction dominates")
+                f"and the motion, an inertia error or a gear's play or spring between motor and "
+                f"load swamps it: check that torque and position share one clock and the declared "
+                f"inertia, or record a slower motion in which friction dominates")
         raise NotIdentifiable(
             f"{name}: the joint never reaches sliding ({why}); record with a larger torque "
             f"amplitude or faster motion, so that the joint slides clearly in both directions")
