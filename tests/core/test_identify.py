@@ -129,7 +129,7 @@ def test_a_refusal_where_inertial_torque_swamps_friction_points_at_the_clock_not
         identify(rec)
     said = str(err.value)
     assert "inertial torque" in said and "share one clock" in said, said
-    assert "a gear's play or spring" in said, said   # a geared joint's gap rings there too (soak seed 10384)
+    assert "a gear's play or spring" in said, said   # a geared joint's gap rings there too (fresh seed 10384: refused)
     assert "larger torque amplitude" not in said and "\n" not in said, said
     spec = PRESETS["rotary"]
     stuck = simulate_record(spec, 0.5 * spec.friction.Fs, spec.excitation[1], duration=12.0, seed=10226).record
