@@ -5,7 +5,7 @@ sine or two tones; a PID tracking a sine, point-to-point moves or a Fourier traj
 logger (1, 2 or 0.5 ms, jitter and lost rows or not, a coarser encoder or not), the noise
 (reading, felt, or both) and one effect in that simulator's own conventions, or none.
 
-    python tools/soak_independent.py --seeds 30000:30080 [--out soak.jsonl] [--outside]
+    python tools/soak_independent.py --seeds 30000:30080 [--out soak.jsonl] [--outside] [--friction-column]
 
 Writes one JSON line per record (what was drawn, what was named, flagged, the errors of Fc,
 Fs, sigma2) and prints the misses: a clean record with anything named or flagged, an effect
@@ -27,6 +27,7 @@ import numpy as np
 
 sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[1] / "tests")]
 from bench.analysis import analyze_record  # noqa: E402
+from bench.records import Record  # noqa: E402
 from bench.unexplained import MIN_SIZE  # noqa: E402
 from independent_joint import fourier_trajectory, independent_record, point_to_point, two_tones  # noqa: E402
 from virtual_drives.presets import PRESETS  # noqa: E402
@@ -108,13 +109,26 @@ def scenario(seed: int, outside: bool = False):
     return joint, exc, dt, noise, eff, ph, kw, dur
 
 
-def run(seed: int, outside: bool = False) -> dict:
+def friction_column(rec, path, dur: float, inertia: float):
+    """The record as a torque-sensing arm publishes it: the torque less its own rigid-body
+    model's M q'' (the motor's true acceleration, from the simulator's fine path), with the
+    reading's noise; whatever the record does not hold -- a weight, an offset, a felt
+    disturbance, a gear's far side -- stays in it, as on a real arm.  Inertia 0."""
+    h = dur / (len(path) - 1)
+    qdd = (path[2:, 0] - 2.0 * path[1:-1, 0] + path[:-2, 0]) / (h * h)
+    tau = rec.tau - inertia * np.interp(rec.t, h * np.arange(1, len(path) - 1), qdd)
+    return Record(t=rec.t, tau=tau, q=rec.q, meta=dict(rec.meta, inertia=0.0))
+
+
+def run(seed: int, outside: bool = False, friction: bool = False) -> dict:
     """Simulate and analyse one seed; what came out, as one JSON-able row."""
     joint, exc, dt, noise, eff, ph, kw, dur = scenario(seed, outside)
     spec = PRESETS[joint]
     t0 = time.time()
     try:
-        rec, _ = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **kw)
+        rec, path = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **kw)
+        if friction:
+            rec = friction_column(rec, path, dur, spec.inertia)
         doc = analyze_record(rec).report()
     except Exception as e:
         return dict(seed=seed, joint=joint, exc=exc, dt=dt, noise=noise, eff=eff, error=f"{type(e).__name__}: {e}"[:300])
@@ -126,7 +140,7 @@ def run(seed: int, outside: bool = False) -> dict:
         ok = not named and not doc["final"]["effects"]
     else:
         ok = (not named if eff == "none" else (bool(named) and named[0] == eff)) and not doc["unexplained"]["structured"]
-    size = None if ok or eff == "none" or outside else effect_size(spec, dur, seed, dt, ph, kw)
+    size = None if ok or eff == "none" or outside else effect_size(spec, dur, seed, dt, ph, kw, friction)
     return dict(size=size, seed=seed, joint=joint, exc=exc, dt=dt, noise=noise, kw={k: v for k, v in kw.items() if k not in ("torque", "reference")},
                 eff=eff, named=named, final=doc["final"]["effects"], flagged=doc["unexplained"]["structured"],
                 err=err, ident=ident, ok=ok, secs=round(time.time() - t0, 1),
@@ -137,12 +151,15 @@ def run(seed: int, outside: bool = False) -> dict:
 WEAK = MIN_SIZE
 
 
-def effect_size(spec, dur, seed, dt, ph, kw) -> float:
+def effect_size(spec, dur, seed, dt, ph, kw, friction: bool = False) -> float:
     """What the baseline leaves of a missed effect, as a fraction of Fc, on the same record
     without noise, disturbance, lost rows or a coarser encoder: the effect's own size."""
-    quiet = {k: v for k, v in kw.items() if k not in ("disturbance", "disturbance_tau", "torque_noise", "jitter", "drop", "resolution")}
+    quiet = {k: v for k, v in kw.items() if k not in ("disturbance", "disturbance_tau", "jitter", "drop", "resolution")}
+    quiet["torque_noise"] = 0.0     # (left out, the preset's own reading noise)
     try:
-        rec, _ = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **quiet)
+        rec, path = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **quiet)
+        if friction:
+            rec = friction_column(rec, path, dur, spec.inertia)
         return round(analyze_record(rec).report()["baseline"]["rms_error"] / spec.friction.Fc, 4)
     except Exception:   # the noisy record's verdict is the result; this only sizes it
         return None
@@ -155,13 +172,15 @@ def main() -> None:
     ap.add_argument("--processes", type=int, default=2)
     ap.add_argument("--outside", action="store_true",
                     help="draw physics outside the library instead (a miss: any library effect credited)")
+    ap.add_argument("--friction-column", action="store_true",
+                    help="publish each record as a torque-sensing arm does: friction torque, inertia 0")
     a = ap.parse_args()
     first, end = (int(x) for x in a.seeds.split(":"))
     if not 30000 <= first < end <= 40000:
         ap.error("--seeds must lie within 30000:40000")
     rows = []
     with Pool(a.processes) as pool, open(a.out, "a") as out:
-        for res in pool.imap_unordered(partial(run, outside=a.outside), range(first, end)):
+        for res in pool.imap_unordered(partial(run, outside=a.outside, friction=a.friction_column), range(first, end)):
             out.write(json.dumps(res, default=str) + "\n")
             out.flush()
             rows.append(res)
