@@ -1,6 +1,6 @@
 """Soak the analysis on random combinations of recording conditions and effects, written by
 the independent simulator (``tests/independent_joint.py``), seeds 30000-39999 only (tests use
-their own; nothing here tunes a threshold).  Each seed draws a joint, an excitation (a torque
+their own; a bar set from a soak seed names it and is tested on fresh seeds).  Each seed draws a joint, an excitation (a torque
 sine or two tones; a PID tracking a sine, point-to-point moves or a Fourier trajectory), a
 logger (1, 2 or 0.5 ms, jitter and lost rows or not, a coarser encoder or not), the noise
 (reading, felt, or both) and one effect in that simulator's own conventions, or none.
@@ -10,9 +10,14 @@ logger (1, 2 or 0.5 ms, jitter and lost rows or not, a coarser encoder or not), 
 Writes one JSON line per record (what was drawn, what was named, flagged, the errors of Fc,
 Fs, sigma2) and prints the misses: a clean record with anything named or flagged, an effect
 not named first, or an exception; a missed effect is sized on the same record without noise
-(what the baseline leaves, in Fc), so one too weak to matter is told from a miss.  Found in its first runs (2026-12-07): an IndexError on a
-tail segment too short for the comparison grid, a perfect-model replay that left a held pose
-across a gap in its floor, and a gear's load restarted at rest in the middle of a motion."""
+(what the baseline leaves, in Fc), so one too weak to matter is told from a miss.
+``--outside`` draws physics outside the library instead (a miss: any effect credited);
+``--friction-column`` publishes each record as a torque-sensing arm does.
+
+Found in its first runs (2026-12-07): an IndexError on a tail segment too short for the
+comparison grid, a perfect-model replay that left a held pose across a gap in its floor, and a
+gear's load restarted at rest in the middle of a motion; in its second, a gap ringing on its
+contact refused as a clock error (seed 30243: bench.identify.SCATTERED_R2)."""
 from __future__ import annotations
 
 import argparse
