@@ -178,12 +178,10 @@ def _check_sliding(c: Conditioned, F: np.ndarray, name: str, revolute: bool = Tr
         # map far into the Stribeck decay.  Start from the mean friction there and no viscous
         # term; the fit and the diagnosis say what is left, which a refusal would hide.
         return float(np.mean(np.abs(F[hi] - other[hi]))), 0.0, vmax, other
-    if SCATTERED_R2 <= r2 < 0.8 and agree >= 0.9:
-        # it slides, but the map there is scattered about the line: a gear's gap ringing on
-        # its contact under a PID's fast moves (SCATTERED_R2).  The line is a start; the fit
-        # and the diagnosis say what is left.
-        return float(coef[0]), float(max(coef[1], 0.0)), vmax, other
-    if coef[0] <= 0 or r2 < 0.8 or agree < 0.9:
+    # a map that slides but scatters about the line (a gear's gap ringing on its contact under
+    # a PID's fast moves: SCATTERED_R2 <= R^2 < 0.8) is read too: the line is a start, and the
+    # fit and the diagnosis say what is left
+    if coef[0] <= 0 or r2 < SCATTERED_R2 or agree < 0.9:
         why = (f"at its highest speeds friction does not follow sgn(v), even allowing for an offset "
                f"and gravity: R^2 {r2:.2f}, sign agreement {agree:.0%}")
         inertial = float(np.median(np.abs(M * c.a[hi]))) / max(float(np.median(np.abs(F[hi]))), 1e-300)
