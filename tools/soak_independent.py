@@ -126,16 +126,19 @@ def friction_column(rec, path, dur: float, inertia: float):
     return Record(t=rec.t, tau=tau, q=rec.q, meta=dict(rec.meta, inertia=0.0))
 
 
+def simulate(spec, dur: float, seed: int, dt: float, ph, kw, friction: bool):
+    """The independent simulator's record of one draw; ``friction``: as a friction column."""
+    rec, path = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **kw)
+    return friction_column(rec, path, dur, spec.inertia) if friction else rec
+
+
 def run(seed: int, outside: bool = False, friction: bool = False) -> dict:
     """Simulate and analyse one seed; what came out, as one JSON-able row."""
     joint, exc, dt, noise, eff, ph, kw, dur = scenario(seed, outside)
     spec = PRESETS[joint]
     t0 = time.time()
     try:
-        rec, path = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **kw)
-        if friction:
-            rec = friction_column(rec, path, dur, spec.inertia)
-        doc = analyze_record(rec).report()
+        doc = analyze_record(simulate(spec, dur, seed, dt, ph, kw, friction)).report()
     except Exception as e:
         return dict(seed=seed, joint=joint, exc=exc, dt=dt, noise=noise, eff=eff, error=f"{type(e).__name__}: {e}"[:300])
     named = [d["effect"] for d in doc.get("diagnosis", []) if d["significant"]]
@@ -163,10 +166,7 @@ def effect_size(spec, dur, seed, dt, ph, kw, friction: bool = False) -> float:
     quiet = {k: v for k, v in kw.items() if k not in ("disturbance", "disturbance_tau", "jitter", "drop", "resolution")}
     quiet["torque_noise"] = 0.0     # (left out, the preset's own reading noise)
     try:
-        rec, path = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **quiet)
-        if friction:
-            rec = friction_column(rec, path, dur, spec.inertia)
-        return round(analyze_record(rec).report()["baseline"]["rms_error"] / spec.friction.Fc, 4)
+        return round(analyze_record(simulate(spec, dur, seed, dt, ph, quiet, friction)).report()["baseline"]["rms_error"] / spec.friction.Fc, 4)
     except Exception:   # the noisy record's verdict is the result; this only sizes it
         return None
 
