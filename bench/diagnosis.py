@@ -254,7 +254,10 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
             effect = get(sc.effect)
             new_model, _ = refit(data, model, effect, sc.init, sc.beta, inertia, ctx=cur.ctx,
                                  others=sc.others[:effect.restarts])
-            if not forced_step(sc, add) and not effect.credible(new_model.values, cur.ctx):
+            # refused on the residual before the refit, it may still hold on what its refit
+            # leaves (``Effect.credible_after``): judged once that is evaluated
+            late = not forced_step(sc, add) and not effect.credible(new_model.values, cur.ctx)
+            if late and not effect.judged_after:
                 rejected.add(sc.effect)
                 continue
             if not forced_step(sc, add) and effect.reshapes_levels and levels_lost(model.result, new_model.result):
@@ -264,6 +267,9 @@ def diagnose(data: FitData, baseline: FitResult, meta: dict, inertia: float,
                 rejected.add(sc.effect)
                 continue
             ev = evaluate(data, new_model, cv, meta, inertia, chain)
+            if late and not effect.credible_after(new_model.values, ev.ctx):
+                rejected.add(sc.effect)
+                continue
             if not forced_step(sc, add) and not effect.holds(new_model.values, ev.ctx):
                 rejected.add(sc.effect)
                 continue

@@ -5,8 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from bench import terms
-from bench.effects.base import Context, Effect, check_known, explained_text, number, one_level_along_travel
+from bench.effects.base import (Context, Effect, check_known, explained_text, level_left_along_travel, number,
+                               one_level_along_travel)
 from bench.errors import InputError
+
+
+def _sliding(ctx: Context) -> np.ndarray:
+    v = np.abs(ctx.data.c.v)
+    return v > 0.3 * np.percentile(v[ctx.data.mask], 99)
 
 
 class DirectionAsymmetry(Effect):
@@ -24,9 +30,12 @@ class DirectionAsymmetry(Effect):
         """s(v) (1 + a sgn v) is Fc (1 + a) one way and -Fc (1 - a) the other: the symmetric fit
         leaves a Fc while sliding in either direction, the same all along the travel.  A spring
         along the linear stage's travel was taken for a 1 % asymmetry (tuning seeds 1002-1032)."""
-        v = np.abs(ctx.data.c.v)
-        sliding = v > 0.3 * np.percentile(v[ctx.data.mask], 99)
-        return one_level_along_travel(ctx, sliding)
+        return one_level_along_travel(ctx, _sliding(ctx))
+
+    judged_after = True
+
+    def credible_after(self, values, ctx):
+        return level_left_along_travel(ctx, values["asym"] * values["Fc"], _sliding(ctx))
 
     def apply(self, values, extra, ev):
         ev[terms.ASYM] += values["asym"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 
 from bench import terms
-from bench.effects.base import Context, Effect, check_known, explained_text, number, one_level_along_travel
+from bench.effects.base import (Context, Effect, check_known, explained_text, level_left_along_travel, number,
+                               one_level_along_travel)
 from bench.effects.gravity import offset_or_gravity, travel
 
 
@@ -19,6 +20,11 @@ class TorqueOffset(Effect):
     def credible(self, values, ctx):
         # a constant is the same over both halves of the travel
         return one_level_along_travel(ctx)
+
+    judged_after = True
+
+    def credible_after(self, values, ctx):
+        return level_left_along_travel(ctx, values["offset"])
 
     def apply(self, values, extra, ev):
         ev[terms.OFFSET] += values["offset"]

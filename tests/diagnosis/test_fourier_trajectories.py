@@ -69,3 +69,38 @@ def test_a_gap_ringing_on_its_contact_under_fourier_moves_is_analysed_not_refuse
     for seed, named, ratio in rows:
         assert named and named[0] == "backlash", (seed, named)
         assert ratio <= 0.7, (seed, ratio)
+
+
+def _level(joint, seed, kind, moves):
+    """An offset or a direction asymmetry of 11 % of Fc on a joint under a PID tracking
+    Fourier or point-to-point moves, with a felt disturbance (1.5 % of Fc, 50 ms); 1 ms logger."""
+    from bench.analysis import analyze_record
+    from independent_joint import independent_record, point_to_point
+    spec = PRESETS[joint]
+    travel, Fc = _travel(spec), spec.friction.Fc
+    rng = np.random.default_rng([seed, 5])
+    ref = (fourier_trajectory(travel, 6.0 / spec.friction.alpha, 30.0, rng)[0] if moves == "fourier"
+           else point_to_point(travel, 0.5 / spec.excitation[1], 30.0, rng))
+    sign = 1.0 if seed % 2 else -1.0
+    physics = dict(constant=0.11 * sign * Fc) if kind == "torque_offset" else dict(asym=0.11 * sign)
+    rec, _ = independent_record(spec, duration=30.0, seed=seed, physics=physics, disturbance=0.015 * Fc,
+                                disturbance_tau=0.05, pd=(6.0, 0.5 * travel, 1.5), reference=ref)
+    doc = analyze_record(rec).report()
+    return kind, seed, [d["effect"] for d in doc["diagnosis"] if d["significant"]], doc["unexplained"]["structured"]
+
+
+def test_a_level_the_friction_fit_bent_under_a_loop_is_named():
+    """Under a loop an offset or a direction's extra friction is taken in part by LuGre's own
+    fit, differently where the motion differs along the travel: what the baseline leaves then
+    differs between the travel's halves, and the level was refused as "not one level" though
+    its refit left nothing (soak seed 30388: an offset, 0.33 to 0.03; 30323: an asymmetry told
+    as an offset).  It is now judged on what its refit leaves
+    (``bench.effects.base.level_left_along_travel``).  These fresh seeds, measured before the
+    rule: 7 of 8 (j4's offset, 10387, read as gravity); with it 8 of 8."""
+    items = [("linear", 10386, "torque_offset", "fourier"), ("j4", 10387, "torque_offset", "fourier"),
+             ("j3", 10388, "torque_offset", "p2p"), ("j1", 10389, "torque_offset", "p2p"),
+             ("j2", 10390, "direction_asymmetry", "fourier"), ("linear", 10391, "direction_asymmetry", "fourier"),
+             ("linear", 10392, "direction_asymmetry", "p2p"), ("j4", 10393, "direction_asymmetry", "p2p")]
+    rows = map_records(_level, items)
+    wrong = [r for r in rows if not (r[2] and r[2][0] == r[0] and not r[3])]
+    assert not wrong, wrong
