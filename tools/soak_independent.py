@@ -18,7 +18,8 @@ not named first, or an exception; a missed effect is sized on the same record wi
 Found in its first runs (2026-12-07): an IndexError on a tail segment too short for the
 comparison grid, a perfect-model replay that left a held pose across a gap in its floor, and a
 gear's load restarted at rest in the middle of a motion; in its second, a gap ringing on its
-contact refused as a clock error (seed 30243: bench.identify.SCATTERED_R2)."""
+contact refused as a clock error (seed 30243: bench.identify.SCATTERED_R2); later, the friction
+column's own q'' mixing two hold periods (``friction_column``)."""
 from __future__ import annotations
 
 import argparse
@@ -115,21 +116,30 @@ def scenario(seed: int, outside: bool = False):
     return joint, exc, dt, noise, eff, ph, kw, dur
 
 
-def friction_column(rec, path, dur: float, inertia: float):
+def friction_column(rec, path, dur: float, dt: float, inertia: float):
     """The record as a torque-sensing arm publishes it: the torque less its own rigid-body
     model's M q'' (the motor's true acceleration, from the simulator's fine path), with the
     reading's noise; whatever the record does not hold -- a weight, an offset, a felt
-    disturbance, a gear's far side -- stays in it, as on a real arm.  Inertia 0."""
-    h = dur / (len(path) - 1)
-    qdd = (path[2:, 0] - 2.0 * path[1:-1, 0] + path[:-2, 0]) / (h * h)
-    tau = rec.tau - inertia * np.interp(rec.t, h * np.arange(1, len(path) - 1), qdd)
+    disturbance, a gear's far side -- stays in it, as on a real arm.  Inertia 0.
+
+    q'' is taken inside the period whose held torque the sample holds: at a period's first
+    instant a centred difference mixes two periods' accelerations, and under a loop that is
+    half its torque step, kd dt/2 q'' -- an inertia term of the column's own (10 on j2's 180
+    at 2 ms, seed 30281: session 70's "felt disturbance credited as an inertia error" there)."""
+    n = int(round(dur / dt))
+    n_sub = (len(path) - 1) // n
+    h = dt / n_sub
+    qdd = (path[2:, 0] - 2.0 * path[1:-1, 0] + path[:-2, 0]) / (h * h)     # at fine nodes 1..
+    period = np.minimum((rec.t / dt).astype(int), n - 1)     # as independent_record samples tau
+    node = np.clip(np.rint(rec.t / h).astype(int), period * n_sub + 1, (period + 1) * n_sub - 1)
+    tau = rec.tau - inertia * qdd[node - 1]
     return Record(t=rec.t, tau=tau, q=rec.q, meta=dict(rec.meta, inertia=0.0))
 
 
 def simulate(spec, dur: float, seed: int, dt: float, ph, kw, friction: bool):
     """The independent simulator's record of one draw; ``friction``: as a friction column."""
     rec, path = independent_record(spec, duration=dur, seed=seed, dt=dt, physics=ph, **kw)
-    return friction_column(rec, path, dur, spec.inertia) if friction else rec
+    return friction_column(rec, path, dur, dt, spec.inertia) if friction else rec
 
 
 def run(seed: int, outside: bool = False, friction: bool = False) -> dict:
